@@ -1,0 +1,75 @@
+"""Link the package's ``data_files`` (ament index marker, package.xml, config) into the venv.
+
+An editable install (``pip install -e .``) installs the code and the console scripts but not
+``data_files``, which ROS tooling looks up under ``<prefix>/share``. This mirrors what
+``colcon build --symlink-install`` does for an ament_python package: each data file is
+symlinked from the venv prefix to the source tree, so edits show up without reinstalling.
+
+Run it with the venv's python: the prefix is ``sys.prefix``.
+"""
+
+from __future__ import annotations
+
+import os
+import runpy
+import shutil
+import sys
+from pathlib import Path
+from typing import Any
+
+import setuptools
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def read_data_files(setup_py: Path) -> list[tuple[str, list[str]]]:
+    """Return the ``data_files`` argument that ``setup_py`` passes to ``setup()``."""
+    captured: dict[str, Any] = {}
+    real_setup = setuptools.setup
+    setuptools.setup = lambda **kwargs: captured.update(kwargs)
+    cwd = os.getcwd()
+    try:
+        os.chdir(setup_py.parent)  # setup.py globs relative to its own directory
+        runpy.run_path(str(setup_py), run_name="__main__")
+    finally:
+        os.chdir(cwd)
+        setuptools.setup = real_setup
+    return captured.get("data_files", [])
+
+
+def link_data_files(setup_py: Path, prefix: Path) -> int:
+    """Symlink every data file of ``setup_py`` into ``prefix``; returns how many."""
+    data_files = read_data_files(setup_py)
+    # Start from a clean share/<package> so that removed config files do not linger.
+    owned = {Path(directory).parts[:2] for directory, _ in data_files}
+    for owned_dir in owned:
+        if len(owned_dir) == 2 and owned_dir[0] == "share" and owned_dir[1] != "ament_index":
+            shutil.rmtree(prefix.joinpath(*owned_dir), ignore_errors=True)
+    count = 0
+    for directory, files in data_files:
+        target_dir = prefix / directory
+        target_dir.mkdir(parents=True, exist_ok=True)
+        for name in files:
+            source = (setup_py.parent / name).resolve()
+            if not source.is_file():
+                raise FileNotFoundError(f"data file {name} listed in {setup_py} does not exist")
+            target = target_dir / source.name
+            if target.is_symlink() or target.exists():
+                target.unlink()
+            target.symlink_to(source)
+            count += 1
+    return count
+
+
+def main() -> int:
+    if sys.prefix == sys.base_prefix:
+        print("link_data_files: run this with the virtual environment python (.venv/bin/python)",
+              file=sys.stderr)
+        return 2
+    count = link_data_files(ROOT / "setup.py", Path(sys.prefix))
+    print(f"link_data_files: linked {count} data files into {sys.prefix}/share")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,30 @@
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = "pier_monitor"
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+        ("share/" + package_name + "/config", sorted(glob("config/*.yaml"))),
+    ],
+    # Runtime dependencies (ROS 2 wheels, torch, numpy, ...) are pinned in requirements.txt
+    # and declared for rosdep in package.xml; setuptools only needs itself here.
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="pier_monitor maintainers",
+    maintainer_email="pier-monitor@example.com",
+    description="Physics-informed damage identification of reinforced-concrete bridge piers",
+    license="Apache-2.0",
+    python_requires=">=3.10",
+    entry_points={
+        "console_scripts": [
+            "pier-monitor = pier_monitor.cli:main",
+        ],
+    },
+)
