@@ -1,0 +1,210 @@
+"""Read a rosbag2 directory or a plain mcap file back into a recording.
+
+The result is a :class:`~pier_monitor.core.recording.Recording`.
+
+Both formats are read with ``rosbags.rosbag2.Reader``, which opens rosbag2 directories
+(``metadata.yaml`` + storage files) and bare ``.mcap`` files of the ``ros2`` profile alike.
+
+The pier configuration comes from the bag itself: the ``std_msgs/msg/String`` on
+``/<pier_id>/pier_configuration`` (its first message).  Each sensor of its map is read from
+``/<pier_id>/<sensor topic>``, whose messages must be ``pier_monitor_msgs/msg/SampleBlock``
+with the unit, kind and axes of the map.  Samples are kept exactly as stored, in the bag's
+order, gaps, duplicates, NaNs and all: judging them is the ingest's job, which then can name
+the sensor and time.  ``SampleBlock`` topics of sensors that are not in the map are listed in
+:attr:`Recording.unmapped_topics`; other topics are ignored.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pier_monitor.core.config import PierConfig, SensorSpec, config_from_yaml
+from pier_monitor.core.errors import PierMonitorError
+from pier_monitor.core.recording import NS_PER_S, Recording, SensorRecord
+
+from .errors import BagError
+from .types import KIND_NAMES, SAMPLE_BLOCK, STRING, get_typestore
+from .writer import CONFIG_TOPIC_NAME
+
+__all__ = ["read_bag", "read_bag_config"]
+
+
+def _check_path(path: Path) -> None:
+    if not path.exists():
+        raise BagError(f"{path}: no such bag (expected a rosbag2 directory or an .mcap file)")
+    if path.is_dir():
+        if not (path / "metadata.yaml").is_file():
+            raise BagError(f"{path}: not a rosbag2 directory (no metadata.yaml)")
+    elif path.suffix.lower() not in (".mcap", ".db3"):
+        raise BagError(f"{path}: unknown bag format {path.suffix!r}; expected a rosbag2 "
+                       "directory or an .mcap file")
+
+
+def _config_connections(path: Path, connections: list[Any], pier_id: str | None) -> list[Any]:
+    suffix = f"/{CONFIG_TOPIC_NAME}"
+    found = [c for c in connections if c.topic.endswith(suffix)]
+    if pier_id is not None:
+        found = [c for c in found if c.topic == f"/{pier_id}{suffix}"]
+    if not found:
+        topics = sorted({c.topic for c in connections})
+        want = f"/{pier_id}{suffix}" if pier_id is not None else f"/<pier_id>{suffix}"
+        raise BagError(f"{path}: no pier configuration in the bag (expected a {STRING} on "
+                       f"{want}); its topics are {topics}")
+    topics = sorted({c.topic for c in found})
+    if len(topics) > 1:
+        raise BagError(f"{path}: configurations of several piers {topics}; choose one with "
+                       "pier_id")
+    for conn in found:
+        if conn.msgtype != STRING:
+            raise BagError(f"{path}: unknown message type {conn.msgtype!r} on {conn.topic}; "
+                           f"expected {STRING} holding the pier configuration YAML")
+    return found
+
+
+def _read_config(path: Path, reader: Any, conns: list[Any]) -> tuple[PierConfig, str]:
+    typestore = get_typestore()
+    topic = conns[0].topic
+    for _, log_ns, raw in reader.messages(connections=conns):
+        try:
+            text = typestore.deserialize_cdr(raw, STRING).data
+        except Exception as err:
+            raise BagError(f"{path}: {topic}: cannot decode the configuration message at "
+                           f"{log_ns} ns: {err}") from err
+        return config_from_yaml(text, source=f"{path.name}:{topic}"), topic
+    raise BagError(f"{path}: no pier configuration in the bag ({topic} has no messages)")
+
+
+def _block_arrays(path: Path, topic: str, spec: SensorSpec, msg: Any,
+                  log_ns: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    where = f"{path}: {topic} at {log_ns} ns"
+    if msg.sensor_id != spec.sensor_id:
+        raise BagError(f"{where}: block of sensor {msg.sensor_id!r} on the topic of sensor "
+                       f"{spec.sensor_id!r}")
+    kind = KIND_NAMES.get(int(msg.kind))
+    if kind != spec.kind:
+        raise BagError(f"{where}: block kind {msg.kind} ({kind or 'unknown'}) but the "
+                       f"configuration says {spec.kind}")
+    if msg.unit != spec.unit:
+        raise BagError(f"{where}: block unit {msg.unit!r} but the configuration says "
+                       f"{spec.unit!r}")
+    if list(msg.axes) != list(spec.axes):
+        raise BagError(f"{where}: block axes {list(msg.axes)} but the configuration says "
+                       f"{list(spec.axes)}")
+    rate = float(msg.sample_rate_hz)
+    if not (np.isfinite(rate) and rate > 0):
+        raise BagError(f"{where}: invalid sample_rate_hz {rate}")
+    data = np.asarray(msg.data, dtype=np.float64)
+    n_axes = len(spec.axes)
+    if data.size % n_axes:
+        raise BagError(f"{where}: {data.size} values are not a whole number of samples of "
+                       f"{n_axes} axes")
+    n = data.size // n_axes
+    stamp_ns = int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
+    times = stamp_ns + np.rint(np.arange(n) * (NS_PER_S / rate)).astype(np.int64)
+    index = int(msg.first_sample_index) + np.arange(n, dtype=np.int64)
+    return times, index, data.reshape(n, n_axes), rate
+
+
+def read_bag(path: str | Path, *, pier_id: str | None = None) -> Recording:
+    """Read a bag of the layout :func:`~pier_monitor.bags.writer.write_bag` writes.
+
+    Parameters
+    ----------
+    path : str or Path
+        A rosbag2 directory (with ``metadata.yaml``) or a plain ``.mcap`` file.
+    pier_id : str, optional
+        The pier to read when the bag holds several; default: the only one.
+
+    Returns
+    -------
+    Recording
+        The configuration from the bag and, per sensor of its map that has samples in the
+        bag, ``time_ns`` (T,), ``sample_index`` (T,) and ``data`` (T, n_axes) in the sensor's
+        unit.
+
+    Raises
+    ------
+    BagError
+        Naming the file: it does not exist; it is truncated or corrupt; it holds no
+        configuration; a sensor topic has an unknown message type; a block contradicts the
+        sensor map (sensor id, kind, unit, axes) or cannot be decoded.
+    ConfigError
+        The embedded configuration is invalid (names the bag and topic).
+    """
+    from rosbags.rosbag2 import Reader
+
+    path = Path(path)
+    _check_path(path)
+    typestore = get_typestore()
+    try:
+        with Reader(path) as reader:
+            connections = list(reader.connections)
+            config_conns = _config_connections(path, connections, pier_id)
+            config, topic = _read_config(path, reader, config_conns)
+            namespace = topic[: -len(CONFIG_TOPIC_NAME) - 1]
+            by_topic = {f"{namespace}/{s.topic.lstrip('/')}": s for s in config.sensors}
+            sensor_conns = []
+            unmapped = set()
+            for conn in connections:
+                if conn.topic in by_topic:
+                    if conn.msgtype != SAMPLE_BLOCK:
+                        raise BagError(
+                            f"{path}: unknown message type {conn.msgtype!r} on {conn.topic} "
+                            f"(sensor {by_topic[conn.topic].sensor_id}); expected {SAMPLE_BLOCK}")
+                    sensor_conns.append(conn)
+                elif conn.msgtype == SAMPLE_BLOCK:
+                    unmapped.add(conn.topic)
+            parts: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+            rates: dict[str, float] = {}
+            if sensor_conns:
+                for conn, log_ns, raw in reader.messages(connections=sensor_conns):
+                    spec = by_topic[conn.topic]
+                    try:
+                        msg = typestore.deserialize_cdr(raw, SAMPLE_BLOCK)
+                    except Exception as err:
+                        raise BagError(f"{path}: {conn.topic} at {log_ns} ns: cannot decode "
+                                       f"{SAMPLE_BLOCK}: {type(err).__name__}: {err}") from err
+                    times, index, data, rate = _block_arrays(path, conn.topic, spec, msg, log_ns)
+                    previous = rates.setdefault(spec.sensor_id, rate)
+                    if rate != previous:
+                        raise BagError(f"{path}: {conn.topic} at {log_ns} ns: sample rate "
+                                       f"changes from {previous:g} Hz to {rate:g} Hz")
+                    parts.setdefault(spec.sensor_id, []).append((times, index, data))
+    except PierMonitorError:
+        raise
+    except Exception as err:  # rosbags/OS/decompression errors of a damaged file
+        raise BagError(f"{path}: cannot read bag, it may be truncated or corrupt: "
+                       f"{type(err).__name__}: {err}") from err
+
+    sensors = {}
+    for spec in config.sensors:
+        chunks = parts.get(spec.sensor_id)
+        if not chunks:
+            continue
+        sensors[spec.sensor_id] = SensorRecord(
+            spec.sensor_id,
+            time_ns=np.concatenate([c[0] for c in chunks]),
+            data=np.concatenate([c[2] for c in chunks]),
+            rate_hz=rates[spec.sensor_id],
+            sample_index=np.concatenate([c[1] for c in chunks]))
+    return Recording(config, sensors, source=str(path), unmapped_topics=tuple(sorted(unmapped)))
+
+
+def read_bag_config(path: str | Path, *, pier_id: str | None = None) -> PierConfig:
+    """Only the pier configuration embedded in a bag (see :func:`read_bag` for errors)."""
+    from rosbags.rosbag2 import Reader
+
+    path = Path(path)
+    _check_path(path)
+    try:
+        with Reader(path) as reader:
+            conns = _config_connections(path, list(reader.connections), pier_id)
+            return _read_config(path, reader, conns)[0]
+    except PierMonitorError:
+        raise
+    except Exception as err:
+        raise BagError(f"{path}: cannot read bag, it may be truncated or corrupt: "
+                       f"{type(err).__name__}: {err}") from err

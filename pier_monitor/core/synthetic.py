@@ -1,0 +1,780 @@
+"""Seeded synthetic shaking-table recordings of a pier, with their ground truth (SPEC §6).
+
+:func:`generate_recording` plays an E-Defense-style test: a long, continuous 3-D recording of
+every sensor in a pier configuration's sensor map, with quiet (ambient) stretches before,
+between and after several table runs of increasing damage on the same pier.  Each run has
+its own dynamic parameters (the pier weakens from run to run; the deck may be made heavier)
+and its own table motion.
+
+Physics of one run
+    The link model (SPEC §3) is integrated in the principal direction with
+    :func:`~pier_monitor.core.solver.simulate` (internal step 1 ms, output at the sensors'
+    rate) under the principal component of the table acceleration, a
+    :func:`~pier_monitor.core.ground_motion.synthetic_near_fault` record.  The table also
+    moves transversely (a weaker record of its own) and vertically (a higher-frequency
+    record); the transverse response is the same link model kept elastic, the pier is rigid
+    vertically.  The table idles with a small broadband noise all the time.  Parameters switch
+    from one run to the next in the middle of the quiet stretch between them (when weights
+    are added and the pier is inspected); a later run starts at rest about the residual
+    (permanent) displacement left by the earlier ones, which the displacement transducers keep
+    seeing.
+
+Measurement
+    Every sensor records, per the configuration's measurement model
+    ``recorded_j = gain * signs_j * (u · e_j) / unit_factor + offsets_j + noise``
+    (:class:`~pier_monitor.core.config.SensorSpec`), the true 3-D motion ``u`` at its level:
+    accelerometers the absolute acceleration (foundation: the table's), velocity meters the
+    absolute velocity, displacement transducers the displacement relative to the table (a
+    frame fixed to it).  The offsets of the configuration are the channels' biases (for a
+    DC-coupled vertical accelerometer they include gravity); the noise is white Gaussian with
+    the sensor's ``noise_rms``.
+
+Everything random derives from one seed: the same configuration, scenario and seed give
+bit-identical recordings.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+from scipy import signal
+
+from .config import PierConfig, PierGeometry, SensorSpec, SpringParameters
+from .errors import InputDataError
+from .ground_motion import synthetic_near_fault
+from .model import natural_periods
+from .recording import NS_PER_S, Recording, SensorRecord, sample_times_ns
+from .solver import Response, simulate
+
+__all__ = [
+    "DEFAULT_START_NS",
+    "DEFAULT_PRINCIPAL_DIRECTION_DEG",
+    "RunSpec",
+    "Scenario",
+    "RunTruth",
+    "SyntheticTruth",
+    "SyntheticRecording",
+    "edefense_scenario",
+    "generate_recording",
+    "save_truth",
+    "load_truth",
+]
+
+#: Default start of a synthetic recording: 2024-03-12T01:00:00Z, ns since the Unix epoch.
+DEFAULT_START_NS = 1_710_205_200 * NS_PER_S
+#: Shaking direction used when the configuration leaves ``principal_direction_deg`` open.
+DEFAULT_PRINCIPAL_DIRECTION_DEG = 196.0
+
+_INTERNAL_DT_S = 0.001  # SPEC §3: Newmark internal step
+_RESPONSE_KEYS = ("t", "ag", "x", "v", "a", "theta", "moment")
+_TABLE_KEYS = ("table_velocity", "ag_transverse", "ag_vertical")
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One table run (shaking) of a scenario.
+
+    Parameter factors multiply the configuration's design values section by section
+    (bottom to top); an empty tuple means all ones.  ``k2_factors`` defaults to
+    ``k1_factors`` (the ratio k2/k1 of the design is kept), ``c_factors`` to all ones.
+
+    Attributes
+    ----------
+    name : str
+        Label of the run, e.g. ``"run1"``.
+    pga_mps2 : float
+        Peak table acceleration in the principal direction, m/s².
+    duration_s : float
+        Length of the table record, s.
+    strong_start_s, strong_duration_s : float
+        Onset (from the start of the record) and length of the strong motion, s.
+    pulse_period_s : float
+        Period of the near-fault velocity pulse of the principal component, s.
+    transverse_ratio, vertical_ratio : float
+        PGA of the transverse and vertical table components relative to ``pga_mps2``.
+    k1_factors, k2_factors, fy_factors, c_factors : tuple of float
+        True parameters of the run relative to the design values.
+    added_top_mass_kg : float
+        Mass added at the top level for this run (extra deck weights), kg.
+    motion_seed : int or None
+        Seed of the principal record (the transverse and vertical records' seeds derive from
+        it); ``None`` derives all three from the seed of :func:`generate_recording`.
+    """
+
+    name: str
+    pga_mps2: float
+    duration_s: float = 40.0
+    strong_start_s: float = 10.0
+    strong_duration_s: float = 8.0
+    pulse_period_s: float = 1.2
+    transverse_ratio: float = 0.2
+    vertical_ratio: float = 0.3
+    k1_factors: tuple[float, ...] = ()
+    k2_factors: tuple[float, ...] = ()
+    fy_factors: tuple[float, ...] = ()
+    c_factors: tuple[float, ...] = ()
+    added_top_mass_kg: float = 0.0
+    motion_seed: int | None = None
+
+    def _factors(self, name: str, n: int, default: tuple[float, ...] = ()) -> np.ndarray:
+        values = getattr(self, name) or default
+        if not values:
+            return np.ones(n)
+        arr = np.asarray(values, dtype=float)
+        if arr.shape != (n,) or not np.all(np.isfinite(arr) & (arr > 0)):
+            raise InputDataError(f"run {self.name}: {name}: expected {n} positive factors (one "
+                                 f"per section), got {list(values)}")
+        return arr
+
+    def parameters(self, design: SpringParameters) -> SpringParameters:
+        """The run's true spring parameters from the design values."""
+        n = design.n_springs
+        k1f = self._factors("k1_factors", n)
+        return SpringParameters(design.k1 * k1f,
+                                design.k2 * self._factors("k2_factors", n, tuple(k1f)),
+                                design.fy * self._factors("fy_factors", n),
+                                design.c * self._factors("c_factors", n))
+
+    def geometry(self, design: PierGeometry) -> PierGeometry:
+        """The run's geometry: the design one with ``added_top_mass_kg`` at the top level."""
+        if not (np.isfinite(self.added_top_mass_kg) and self.added_top_mass_kg >= 0):
+            raise InputDataError(f"run {self.name}: added_top_mass_kg: expected a non-negative "
+                                 f"mass, got {self.added_top_mass_kg}")
+        masses = np.array(design.masses_kg)
+        masses[-1] += self.added_top_mass_kg
+        return PierGeometry(design.section_heights_m, masses)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A shaking-table test: runs separated by quiet stretches, on one continuous recording.
+
+    Attributes
+    ----------
+    runs : tuple of RunSpec
+        The runs, in the order they are played.
+    lead_s, gap_s, tail_s : float
+        Quiet recording before the first run, between runs, and after the last run, s.
+    start_ns : int
+        Time of the first sample, ns since the Unix epoch.
+    ambient_rms_mps2 : float
+        RMS of the table's idle motion (band 0.5-20 Hz), per direction, m/s².
+    window_pre_s, window_post_s : float
+        Padding of the reference mainshock window before the 5 % and after the 95 % point of
+        the run's Arias intensity (principal direction), s.
+    """
+
+    runs: tuple[RunSpec, ...]
+    lead_s: float = 20.0
+    gap_s: float = 30.0
+    tail_s: float = 20.0
+    start_ns: int = DEFAULT_START_NS
+    ambient_rms_mps2: float = 2e-3
+    window_pre_s: float = 2.0
+    window_post_s: float = 8.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "runs", tuple(self.runs))
+        if not self.runs:
+            raise InputDataError("scenario: expected at least one run")
+        names = [r.name for r in self.runs]
+        if len(set(names)) != len(names):
+            raise InputDataError(f"scenario: run names must be distinct, got {names}")
+        for name in ("lead_s", "gap_s", "tail_s", "ambient_rms_mps2", "window_pre_s",
+                     "window_post_s"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise InputDataError(f"scenario: {name}: expected a non-negative number, "
+                                     f"got {value}")
+        for run in self.runs:
+            for name in ("pga_mps2", "duration_s", "strong_duration_s", "pulse_period_s"):
+                value = getattr(run, name)
+                if not (np.isfinite(value) and value > 0):
+                    raise InputDataError(f"run {run.name}: {name}: expected a positive number, "
+                                         f"got {value}")
+            if not (np.isfinite(run.strong_start_s) and 0 <= run.strong_start_s < run.duration_s):
+                raise InputDataError(f"run {run.name}: strong_start_s: expected 0 <= value < "
+                                     f"duration_s={run.duration_s}, got {run.strong_start_s}")
+            for name in ("transverse_ratio", "vertical_ratio"):
+                value = getattr(run, name)
+                if not (np.isfinite(value) and value >= 0):
+                    raise InputDataError(f"run {run.name}: {name}: expected a non-negative "
+                                         f"number, got {value}")
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain form, for JSON."""
+        out = asdict(self)
+        out["runs"] = [asdict(r) for r in self.runs]
+        return out
+
+
+def edefense_scenario(*, record_s: float = 40.0, lead_s: float = 20.0, gap_s: float = 30.0,
+                      tail_s: float = 20.0, start_ns: int = DEFAULT_START_NS,
+                      motion_seeds: tuple[int, int] | None = (1994, 1995)) -> Scenario:
+    """The default two-run test of ``config/edefense_like.yaml`` (paper section 7).
+
+    Run 1: the as-built pier (k1 within ±5 % of design at 0-6 m, the top section about 20 %
+    softer: bearings and deck) under a near-fault record of PGA 3.5 m/s²; the bottom
+    section yields moderately.  Run 2: the pier weakened by run 1 (k1 of sections 1-2 down by
+    13-17 %, their yield moments by 11-22 %, less damping there) with 20 % more deck mass
+    (+52 t) under a stronger record (PGA 5.5 m/s²); sections 1-2 yield heavily, 3-4 stay
+    elastic.
+
+    The table records are fixed by ``motion_seeds`` (like a laboratory replaying its chosen
+    input waves), so that the damage pattern is the documented one whatever the seed of
+    :func:`generate_recording`, which then varies the ambient motion and the sensor noise.
+    With the defaults the ductility factors are about 1.65, 0.96, 0.86, 0.57 (run 1) and
+    4.4, 3.9, 0.92, 0.61 (run 2).  ``motion_seeds=None`` derives the records from the seed
+    of :func:`generate_recording` instead (other waves, other damage).
+
+    Parameters
+    ----------
+    record_s : float
+        Length of each table record, s; the strong motion starts 10 s into it.
+    lead_s, gap_s, tail_s : float
+        Quiet stretches before, between and after the runs, s.
+    start_ns : int
+        Time of the first sample, ns since the Unix epoch.
+    motion_seeds : tuple of two int, or None
+        Seeds of the two runs' table records; ``None``: derived from the generator's seed.
+    """
+    seeds = (None, None) if motion_seeds is None else tuple(int(s) for s in motion_seeds)
+    if len(seeds) != 2:
+        raise InputDataError(f"motion_seeds: expected two seeds (one per run), got {motion_seeds}")
+    runs = (
+        RunSpec("run1", pga_mps2=3.5, duration_s=record_s,
+                k1_factors=(1.0, 0.95, 1.05, 0.8), fy_factors=(1.05, 1.0, 1.0, 1.0),
+                motion_seed=seeds[0]),
+        RunSpec("run2", pga_mps2=5.5, duration_s=record_s,
+                k1_factors=(0.87, 0.83, 0.98, 0.68), fy_factors=(0.89, 0.78, 1.0, 1.0),
+                c_factors=(0.75, 0.75, 1.0, 0.9), added_top_mass_kg=52_000.0,
+                motion_seed=seeds[1]),
+    )
+    return Scenario(runs=runs, lead_s=lead_s, gap_s=gap_s, tail_s=tail_s, start_ns=start_ns)
+
+
+@dataclass(frozen=True, eq=False)
+class RunTruth:
+    """Ground truth of one run.
+
+    Times are ns since the Unix epoch; intervals are half-open ``[start, end)`` on the
+    sample grid.  Responses are relative to the foundation, in the principal direction, SI,
+    sampled at the recording's rate; ``response.t`` counts seconds from ``start_ns``.
+
+    Attributes
+    ----------
+    name : str
+        Run label.
+    start_ns, end_ns : int
+        The table record of the run.
+    window_start_ns, window_end_ns : int
+        Reference mainshock window: from ``window_pre_s`` before the 5 % point to
+        ``window_post_s`` after the 95 % point of the Arias intensity of the principal table
+        acceleration, within the record.
+    params : SpringParameters
+        True spring parameters of the run.
+    geometry : PierGeometry
+        True heights and masses of the run.
+    principal_direction_deg : float
+        Azimuth of the principal (shaking) direction in the pier frame, deg.
+    response : Response
+        True relative responses of the link model over the record, shape (T, N) each.
+    table_velocity : ndarray, shape (T,)
+        Table (foundation) velocity in the principal direction, m/s.
+    ag_transverse, ag_vertical : ndarray, shape (T,)
+        Table acceleration across the principal direction (azimuth + 90°) and vertically, m/s².
+    initial_offset_m : ndarray, shape (N,)
+        Residual displacement left by earlier runs, principal direction, m: the displacement
+        transducers record ``initial_offset_m + response.x``.
+    ductility_factors : ndarray, shape (N,)
+        ``max |θ_n| / θy_n`` over the record.
+    periods_s : ndarray, shape (N,)
+        Elastic natural periods of the run's pier, longest first, s.
+    pga_mps2 : float
+        Peak principal table acceleration over the record (idle motion included), m/s².
+    motion_seeds : tuple of int
+        Seeds of the principal, transverse and vertical records.
+    """
+
+    name: str
+    start_ns: int
+    end_ns: int
+    window_start_ns: int
+    window_end_ns: int
+    params: SpringParameters
+    geometry: PierGeometry
+    principal_direction_deg: float
+    response: Response
+    table_velocity: np.ndarray
+    ag_transverse: np.ndarray
+    ag_vertical: np.ndarray
+    initial_offset_m: np.ndarray
+    ductility_factors: np.ndarray
+    periods_s: np.ndarray
+    pga_mps2: float
+    motion_seeds: tuple[int, int, int]
+
+    @property
+    def window_response(self) -> Response:
+        """:attr:`response` restricted to the reference mainshock window."""
+        t0 = (self.window_start_ns - self.start_ns) / NS_PER_S
+        t1 = (self.window_end_ns - self.start_ns) / NS_PER_S
+        return self.response.window(t0, t1)
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready description (parameters, geometry, times, indices; no time series)."""
+        return {
+            "name": self.name,
+            "start_ns": self.start_ns,
+            "end_ns": self.end_ns,
+            "window_start_ns": self.window_start_ns,
+            "window_end_ns": self.window_end_ns,
+            "duration_s": (self.end_ns - self.start_ns) / NS_PER_S,
+            "window_duration_s": (self.window_end_ns - self.window_start_ns) / NS_PER_S,
+            "principal_direction_deg": self.principal_direction_deg,
+            "pga_mps2": self.pga_mps2,
+            "motion_seeds": list(self.motion_seeds),
+            "geometry": {"section_heights_m": self.geometry.section_heights_m.tolist(),
+                         "masses_kg": self.geometry.masses_kg.tolist()},
+            "params": {"k1_Nm_per_rad": self.params.k1.tolist(),
+                       "k2_Nm_per_rad": self.params.k2.tolist(),
+                       "fy_Nm": self.params.fy.tolist(),
+                       "c_Nms_per_rad": self.params.c.tolist()},
+            "yield_angles_rad": self.params.yield_angles.tolist(),
+            "periods_s": self.periods_s.tolist(),
+            "ductility_factors": self.ductility_factors.tolist(),
+            "max_abs_displacement_m": np.max(np.abs(self.response.x), axis=0).tolist(),
+            "residual_displacement_m": self.response.x[-1].tolist(),
+            "initial_offset_m": self.initial_offset_m.tolist(),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class SyntheticTruth:
+    """Ground truth of a synthetic recording.
+
+    Attributes
+    ----------
+    seed : int
+        Seed the recording was generated with.
+    pier_id : str
+        Pier of the configuration.
+    principal_direction_deg : float
+        Azimuth of the shaking direction in the pier frame, deg.
+    sample_rate_hz : float
+        Rate of every channel, Hz.
+    start_ns, end_ns : int
+        First sample and one period past the last sample of the recording, ns.
+    runs : tuple of RunTruth
+        The runs, in order.
+    noise_rms : dict of str to float
+        Noise RMS of each sensor's channels, in the sensor's unit.
+    scenario : Scenario
+        The scenario that was played.
+    """
+
+    seed: int
+    pier_id: str
+    principal_direction_deg: float
+    sample_rate_hz: float
+    start_ns: int
+    end_ns: int
+    runs: tuple[RunTruth, ...]
+    noise_rms: Mapping[str, float]
+    scenario: Scenario
+
+    def run(self, name: str) -> RunTruth:
+        """The run with this name; :class:`InputDataError` if there is none."""
+        for r in self.runs:
+            if r.name == name:
+                return r
+        raise InputDataError(f"no run {name!r}; runs are {[r.name for r in self.runs]}")
+
+
+@dataclass(frozen=True, eq=False)
+class SyntheticRecording:
+    """A synthetic recording and its ground truth."""
+
+    recording: Recording
+    truth: SyntheticTruth
+
+
+# ---------------------------------------------------------------------------------------------
+# generation
+
+
+def _child_seed(seq: np.random.SeedSequence) -> int:
+    return int(seq.generate_state(1, dtype=np.uint32)[0])
+
+
+def _ambient(rng: np.random.Generator, n: int, rate_hz: float, rms: float) -> np.ndarray:
+    """Band-limited (0.5-20 Hz) Gaussian idle motion of the table, shape (n, 3), m/s²."""
+    if rms == 0 or n < 2:
+        return np.zeros((n, 3))
+    high = min(20.0, 0.45 * rate_hz)
+    sos = signal.butter(4, [0.5, high], btype="bandpass", fs=rate_hz, output="sos")
+    noise = signal.sosfiltfilt(sos, rng.standard_normal((n, 3)), axis=0)
+    return noise * (rms / np.sqrt(np.mean(noise ** 2, axis=0)))
+
+
+def _zero_final_velocity(acc: np.ndarray, dt: float) -> np.ndarray:
+    """Baseline-correct a record so that its trapezoidal integral (final velocity) is zero."""
+    v_end = np.trapezoid(acc, dx=dt)
+    w = np.sin(np.linspace(0.0, np.pi, acc.size)) ** 2
+    return acc - v_end * w / np.trapezoid(w, dx=dt)
+
+
+def _integrate(acc: np.ndarray, dt: float) -> np.ndarray:
+    """Cumulative trapezoidal integral from 0, along axis 0."""
+    out = np.zeros_like(acc)
+    out[1:] = np.cumsum(0.5 * (acc[1:] + acc[:-1]) * dt, axis=0)
+    return out
+
+
+def _table_records(run: RunSpec, rate_hz: float,
+                   seeds: tuple[int, int, int]) -> tuple[np.ndarray, ...]:
+    dt = 1.0 / rate_hz
+    kwargs = dict(duration_s=run.duration_s, dt=dt, strong_start_s=run.strong_start_s,
+                  strong_duration_s=run.strong_duration_s)
+    p = synthetic_near_fault(pga_mps2=run.pga_mps2, pulse_period_s=run.pulse_period_s,
+                             seed=seeds[0], **kwargs).acc
+    comps = [_zero_final_velocity(p, dt)]
+    for ratio, seed, extra in ((run.transverse_ratio, seeds[1],
+                                dict(pulse_share=0.15, pulse_period_s=0.8 * run.pulse_period_s)),
+                               (run.vertical_ratio, seeds[2],
+                                dict(pulse_share=0.0, dominant_hz=6.0))):
+        if ratio == 0:
+            comps.append(np.zeros_like(p))
+        else:
+            rec = synthetic_near_fault(pga_mps2=ratio * run.pga_mps2, seed=seed, **extra,
+                                       **kwargs).acc
+            comps.append(_zero_final_velocity(rec, dt))
+    return tuple(comps)
+
+
+def _arias_window(ag: np.ndarray, rate_hz: float, pre_s: float,
+                  post_s: float) -> tuple[int, int]:
+    """Sample range ``[i0, i1)`` from ``pre_s`` before 5 % to ``post_s`` after 95 % Arias."""
+    energy = np.cumsum(ag ** 2)
+    total = energy[-1]
+    i5 = int(np.searchsorted(energy, 0.05 * total))
+    i95 = int(np.searchsorted(energy, 0.95 * total))
+    i0 = max(0, i5 - int(round(pre_s * rate_hz)))
+    i1 = min(ag.size, i95 + int(round(post_s * rate_hz)) + 1)
+    return i0, i1
+
+
+def _elastic(params: SpringParameters) -> SpringParameters:
+    """The same springs with yield moments so high that they never yield."""
+    return SpringParameters(params.k1, params.k2, params.fy * 1e6, params.c)
+
+
+def _record_sensor(spec: SensorSpec, motion: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Apply the configuration's measurement model to the true 3-D motion (T, 3), SI."""
+    directions = np.stack([spec.axis_direction(a) for a in spec.axes])  # (n_axes, 3)
+    projected = motion @ directions.T  # (T, n_axes)
+    signs = np.asarray(spec.signs, dtype=float)
+    offsets = np.asarray(spec.offsets, dtype=float)
+    recorded = spec.gain * signs * projected / spec.si_factor + offsets
+    if spec.noise_rms > 0:
+        recorded = recorded + spec.noise_rms * rng.standard_normal(recorded.shape)
+    return recorded
+
+
+def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, seed: int = 0,
+                       principal_direction_deg: float | None = None) -> SyntheticRecording:
+    """Simulate a shaking-table test of the pier and record it with its sensor map.
+
+    Parameters
+    ----------
+    config : PierConfig
+        The pier: geometry and design parameters (scaled per run by the scenario) and the
+        sensor map (levels, kinds, units, axes, orientations, signs, gains, offsets,
+        noise levels); ``sample_rate_hz`` is the rate of every channel, whose period must be
+        a whole number of milliseconds (the solver's internal step).
+    scenario : Scenario, optional
+        Runs and quiet stretches; default :func:`edefense_scenario`.
+    seed : int
+        Seed of everything random (ambient motion, table records without a fixed
+        ``motion_seed``, sensor noise).
+    principal_direction_deg : float, optional
+        Azimuth of the shaking direction, deg; default the configuration's, else 196°.
+
+    Returns
+    -------
+    SyntheticRecording
+        Per-sensor samples (time_ns shape (T,), data shape (T, n_axes) in the sensor's unit)
+        and the ground truth.
+
+    Raises
+    ------
+    InputDataError
+        If the configuration has no sensors, or the scenario or rate cannot be simulated.
+    """
+    if scenario is None:
+        scenario = edefense_scenario()
+    if not config.sensors:
+        raise InputDataError(f"pier {config.pier_id}: the configuration has no sensor map; "
+                             "nothing to record")
+    if principal_direction_deg is None:
+        principal_direction_deg = (config.principal_direction_deg
+                                   if config.principal_direction_deg is not None
+                                   else DEFAULT_PRINCIPAL_DIRECTION_DEG)
+    if not np.isfinite(principal_direction_deg):
+        raise InputDataError(f"principal_direction_deg: expected a finite angle, got "
+                             f"{principal_direction_deg}")
+    rate = float(config.sample_rate_hz)
+    dt = 1.0 / rate
+    steps = dt / _INTERNAL_DT_S
+    if abs(steps - round(steps)) > 1e-9 or round(steps) < 1:
+        raise InputDataError(f"sample_rate_hz: the sampling period 1/{rate:g} s must be a whole "
+                             f"number of the solver's {_INTERNAL_DT_S * 1e3:g} ms steps")
+    n = config.n_levels
+
+    # the runs' piers first: a bad factor fails before anything is simulated
+    piers = [(run.geometry(config.geometry), run.parameters(config.design))
+             for run in scenario.runs]
+
+    root = np.random.SeedSequence(seed)
+    ambient_seq, noise_seq, *run_seqs = root.spawn(2 + len(scenario.runs))
+
+    # timeline, in samples
+    n_lead = int(round(scenario.lead_s * rate))
+    n_gap = int(round(scenario.gap_s * rate))
+    n_tail = int(round(scenario.tail_s * rate))
+    records = []
+    starts = []
+    cursor = n_lead
+    for run, seq in zip(scenario.runs, run_seqs):
+        if run.motion_seed is None:
+            seeds = tuple(_child_seed(s) for s in seq.spawn(3))
+        else:  # transverse and vertical records get seeds of their own, derived from it
+            seeds = (int(run.motion_seed),
+                     *(_child_seed(np.random.SeedSequence([int(run.motion_seed), k]))
+                       for k in (1, 2)))
+        comps = _table_records(run, rate, seeds)  # principal, transverse, vertical
+        records.append((seeds, comps))
+        starts.append(cursor)
+        cursor += comps[0].size + n_gap
+    total = cursor - n_gap + n_tail
+
+    # table acceleration in (principal, transverse, vertical) components, m/s²
+    table = _ambient(np.random.default_rng(ambient_seq), total, rate, scenario.ambient_rms_mps2)
+    for s0, (_, comps) in zip(starts, records):
+        table[s0:s0 + comps[0].size] += np.stack(comps, axis=1)
+    table_vel = _integrate(table, dt)
+
+    # structural response, run by run; parameters switch halfway through each gap
+    bounds = [0] + [s - n_gap // 2 for s in starts[1:]] + [total]
+    rel = {k: np.zeros((total, n)) for k in ("xp", "vp", "ap", "xt", "vt", "at")}
+    offset = np.zeros(n)
+    run_truths: list[RunTruth] = []
+    times = sample_times_ns(scenario.start_ns, total, rate)
+    end_ns = int(times[-1]) + int(round(NS_PER_S / rate))
+    for i, (run, (seeds, comps), s0) in enumerate(zip(scenario.runs, records, starts)):
+        b0, b1 = bounds[i], bounds[i + 1]
+        geometry, params = piers[i]
+        resp = simulate(geometry, params, table[b0:b1, 0], dt, dt=_INTERNAL_DT_S, output_dt=dt)
+        resp_t = simulate(geometry, _elastic(params), table[b0:b1, 1], dt, dt=_INTERNAL_DT_S,
+                          output_dt=dt)
+        rel["xp"][b0:b1] = resp.x + offset
+        rel["vp"][b0:b1] = resp.v
+        rel["ap"][b0:b1] = resp.a
+        rel["xt"][b0:b1] = resp_t.x
+        rel["vt"][b0:b1] = resp_t.v
+        rel["at"][b0:b1] = resp_t.a
+
+        n_rec = comps[0].size
+        sel = slice(s0 - b0, s0 - b0 + n_rec)
+        response = Response(t=np.arange(n_rec) * dt, ag=resp.ag[sel], x=resp.x[sel],
+                            v=resp.v[sel], a=resp.a[sel], theta=resp.theta[sel],
+                            moment=resp.moment[sel])
+        w0, w1 = _arias_window(response.ag, rate, scenario.window_pre_s, scenario.window_post_s)
+        start_ns = int(times[s0])
+        run_truths.append(RunTruth(
+            name=run.name,
+            start_ns=start_ns,
+            end_ns=start_ns + int(round(n_rec * NS_PER_S / rate)),
+            window_start_ns=int(times[s0 + w0]),
+            window_end_ns=start_ns + int(round(w1 * NS_PER_S / rate)),
+            params=params,
+            geometry=geometry,
+            principal_direction_deg=float(principal_direction_deg),
+            response=response,
+            table_velocity=table_vel[s0:s0 + n_rec, 0].copy(),
+            ag_transverse=table[s0:s0 + n_rec, 1].copy(),
+            ag_vertical=table[s0:s0 + n_rec, 2].copy(),
+            initial_offset_m=offset.copy(),
+            ductility_factors=np.max(np.abs(response.theta), axis=0) / params.yield_angles,
+            periods_s=natural_periods(geometry, params),
+            pga_mps2=float(np.max(np.abs(response.ag))),
+            motion_seeds=seeds,
+        ))
+        offset = offset + resp.x[-1]
+
+    # true 3-D motion of every level in the pier frame (X, Y, Z), SI
+    phi = np.radians(principal_direction_deg)
+    e_p = np.array([np.cos(phi), np.sin(phi), 0.0])
+    e_t = np.array([-np.sin(phi), np.cos(phi), 0.0])
+    e_z = np.array([0.0, 0.0, 1.0])
+
+    def vector(p: np.ndarray, t: np.ndarray, z: np.ndarray | None) -> np.ndarray:
+        """(T, 3) from principal, transverse and vertical components of shape (T, 1)."""
+        out = p * e_p + t * e_t
+        return out if z is None else out + z * e_z
+
+    zeros = np.zeros((total, 1))
+    motions: dict[tuple[str, int], np.ndarray] = {}
+    for level in range(n + 1):
+        # relative motion of the level (the foundation has none)
+        r = {k: rel[k][:, level - 1:level] if level else zeros for k in rel}
+        motions["acceleration", level] = vector(table[:, 0:1] + r["ap"], table[:, 1:2] + r["at"],
+                                                table[:, 2:3])
+        motions["velocity", level] = vector(table_vel[:, 0:1] + r["vp"],
+                                            table_vel[:, 1:2] + r["vt"], table_vel[:, 2:3])
+        motions["displacement", level] = vector(r["xp"], r["xt"], None)
+
+    sensor_seqs = noise_seq.spawn(len(config.sensors))
+    sensors: dict[str, SensorRecord] = {}
+    for spec, seq in zip(config.sensors, sensor_seqs):
+        data = _record_sensor(spec, motions[spec.kind, spec.level], np.random.default_rng(seq))
+        sensors[spec.sensor_id] = SensorRecord(spec.sensor_id, times, data, rate)
+
+    source = f"synthetic shaking-table recording of {config.pier_id} (seed {seed})"
+    truth = SyntheticTruth(
+        seed=int(seed), pier_id=config.pier_id,
+        principal_direction_deg=float(principal_direction_deg), sample_rate_hz=rate,
+        start_ns=int(times[0]), end_ns=end_ns, runs=tuple(run_truths),
+        noise_rms={s.sensor_id: s.noise_rms for s in config.sensors}, scenario=scenario)
+    return SyntheticRecording(Recording(config, sensors, source=source), truth)
+
+
+# ---------------------------------------------------------------------------------------------
+# saving and loading the truth
+
+
+def _truth_json(truth: SyntheticTruth, config: PierConfig | None) -> dict[str, Any]:
+    units = {s.sensor_id: s.unit for s in config.sensors} if config is not None else {}
+    kinds = {s.sensor_id: s.kind for s in config.sensors} if config is not None else {}
+    noise = {}
+    for sid, rms in truth.noise_rms.items():
+        entry: dict[str, Any] = {"noise_rms": rms}
+        if sid in units:
+            spec = config.sensor(sid)  # type: ignore[union-attr]
+            entry.update(unit=units[sid], kind=kinds[sid], noise_rms_si=rms * spec.si_factor)
+        noise[sid] = entry
+    return {
+        "format": "pier_monitor synthetic truth 1",
+        "seed": truth.seed,
+        "pier_id": truth.pier_id,
+        "principal_direction_deg": truth.principal_direction_deg,
+        "sample_rate_hz": truth.sample_rate_hz,
+        "start_ns": truth.start_ns,
+        "end_ns": truth.end_ns,
+        "conventions": {
+            "time": "integer ns since the Unix epoch; intervals are [start, end)",
+            "responses": "relative to the foundation, principal direction, SI (m, m/s, m/s^2, "
+                         "rad, N*m); t in s from the run's start_ns; arrays in the .npz as "
+                         "<run>/<name>",
+            "ductility_factor": "max |theta_n| / (fy_n / k1_n) over the run's record",
+            "window": "reference mainshock window: window_pre_s before the 5% to window_post_s "
+                      "after the 95% point of the Arias intensity of the principal table "
+                      "acceleration",
+        },
+        "runs": [r.summary() for r in truth.runs],
+        "noise": noise,
+        "scenario": truth.scenario.as_dict(),
+    }
+
+
+_SCALAR_LIST = re.compile(r"\[\s*([^\[\]{}]*?)\s*\]", re.DOTALL)
+
+
+def _compact_json(obj: Any) -> str:
+    """Indented JSON with lists of numbers and strings kept on one line."""
+    text = json.dumps(obj, indent=2)
+    return _SCALAR_LIST.sub(lambda m: "[" + re.sub(r"\s*\n\s*", " ", m.group(1)) + "]", text)
+
+
+def save_truth(truth: SyntheticTruth, npz_path: str | Path, json_path: str | Path, *,
+               config: PierConfig | None = None) -> None:
+    """Write the truth: time series to ``npz_path``, everything else to ``json_path``.
+
+    The JSON file is human-readable (indented): parameters, geometry, periods, run and
+    mainshock windows, ductility factors, principal direction, noise levels (with units when
+    ``config`` is given).  The ``.npz`` holds ``<run>/<name>`` arrays: the response
+    (``t, ag, x, v, a, theta, moment``), ``table_velocity``, ``ag_transverse``,
+    ``ag_vertical``, and ``<run>/time_ns``.
+    """
+    arrays: dict[str, np.ndarray] = {}
+    for r in truth.runs:
+        for key, value in r.response.as_dict().items():
+            arrays[f"{r.name}/{key}"] = np.asarray(value)
+        for key in _TABLE_KEYS:
+            arrays[f"{r.name}/{key}"] = np.asarray(getattr(r, key))
+        arrays[f"{r.name}/time_ns"] = r.start_ns + np.rint(
+            r.response.t * NS_PER_S).astype(np.int64)
+    npz_path, json_path = Path(npz_path), Path(json_path)
+    with npz_path.open("wb") as fh:
+        np.savez_compressed(fh, **arrays)
+    json_path.write_text(_compact_json(_truth_json(truth, config)) + "\n", encoding="utf-8")
+
+
+def load_truth(npz_path: str | Path, json_path: str | Path) -> SyntheticTruth:
+    """Read a truth written by :func:`save_truth`.
+
+    Raises
+    ------
+    InputDataError
+        If a file is missing, unreadable or not a truth file.
+    """
+    npz_path, json_path = Path(npz_path), Path(json_path)
+    try:
+        meta = json.loads(json_path.read_text(encoding="utf-8"))
+        with np.load(npz_path) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+    except (OSError, ValueError) as err:
+        raise InputDataError(f"cannot read synthetic truth {json_path.name} / "
+                             f"{npz_path.name}: {err}") from err
+    if meta.get("format") != "pier_monitor synthetic truth 1":
+        raise InputDataError(f"{json_path.name}: not a pier_monitor synthetic truth file")
+    try:
+        sc = dict(meta["scenario"])
+        scenario = Scenario(runs=tuple(RunSpec(**{k: tuple(v) if isinstance(v, list) else v
+                                                  for k, v in r.items()})
+                                       for r in sc.pop("runs")), **sc)
+        runs = []
+        for r in meta["runs"]:
+            name = r["name"]
+            p = r["params"]
+            runs.append(RunTruth(
+                name=name, start_ns=int(r["start_ns"]), end_ns=int(r["end_ns"]),
+                window_start_ns=int(r["window_start_ns"]), window_end_ns=int(r["window_end_ns"]),
+                params=SpringParameters(np.array(p["k1_Nm_per_rad"]), np.array(p["k2_Nm_per_rad"]),
+                                        np.array(p["fy_Nm"]), np.array(p["c_Nms_per_rad"])),
+                geometry=PierGeometry(np.array(r["geometry"]["section_heights_m"]),
+                                      np.array(r["geometry"]["masses_kg"])),
+                principal_direction_deg=float(r["principal_direction_deg"]),
+                response=Response(**{k: arrays[f"{name}/{k}"] for k in _RESPONSE_KEYS}),
+                **{k: arrays[f"{name}/{k}"] for k in _TABLE_KEYS},
+                initial_offset_m=np.array(r["initial_offset_m"]),
+                ductility_factors=np.array(r["ductility_factors"]),
+                periods_s=np.array(r["periods_s"]),
+                pga_mps2=float(r["pga_mps2"]),
+                motion_seeds=tuple(int(s) for s in r["motion_seeds"]),
+            ))
+        return SyntheticTruth(
+            seed=int(meta["seed"]), pier_id=meta["pier_id"],
+            principal_direction_deg=float(meta["principal_direction_deg"]),
+            sample_rate_hz=float(meta["sample_rate_hz"]), start_ns=int(meta["start_ns"]),
+            end_ns=int(meta["end_ns"]), runs=tuple(runs),
+            noise_rms={k: float(v["noise_rms"]) for k, v in meta["noise"].items()},
+            scenario=scenario)
+    except (KeyError, TypeError) as err:
+        raise InputDataError(f"{json_path.name}: incomplete synthetic truth ({err!r} missing "
+                             "or malformed)") from err

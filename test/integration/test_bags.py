@@ -1,0 +1,316 @@
+"""Bags: synthetic E-Defense-style rosbag2 directories and mcap files, written and read back."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pier_monitor.bags import (SAMPLE_BLOCK, BagError, config_topic, find_msg_dir,
+                               get_typestore, read_bag, read_bag_config, sensor_topic,
+                               truth_paths, write_bag, write_synthetic_edefense_bag)
+from pier_monitor.core.config import config_from_yaml, load_config
+from pier_monitor.core.recording import Recording, SensorRecord
+from pier_monitor.core.synthetic import generate_recording, load_truth
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory):
+    """The default synthetic test written once in each format, and the recording it holds."""
+    root = tmp_path_factory.mktemp("bags")
+    rosbag2 = write_synthetic_edefense_bag(root / "edefense", fmt="rosbag2", seed=0)
+    mcap = write_synthetic_edefense_bag(root / "edefense_plain", fmt="mcap", seed=0)
+    expected = generate_recording(load_config(rosbag2.config_path), seed=0).recording
+    return {"rosbag2": rosbag2, "mcap": mcap, "expected": expected}
+
+
+def assert_recordings_equal(got: Recording, want: Recording) -> None:
+    assert got.config == want.config
+    assert list(got.sensors) == list(want.sensors)
+    for sid, rec in want.sensors.items():
+        other = got.sensor(sid)
+        assert np.array_equal(other.time_ns, rec.time_ns), sid
+        assert np.array_equal(other.sample_index, rec.sample_index), sid
+        assert np.array_equal(other.data, rec.data, equal_nan=True), sid
+        assert other.rate_hz == rec.rate_hz
+    assert got.equals(want)
+
+
+# --- round trips ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fmt", ["rosbag2", "mcap"])
+def test_written_bag_reads_back_to_the_recording(written, fmt):
+    info = written[fmt]
+    if fmt == "rosbag2":
+        assert info.bag.path.is_dir() and (info.bag.path / "metadata.yaml").is_file()
+        assert len(list(info.bag.path.glob("*.mcap"))) == 1
+    else:
+        assert info.bag.path.suffix == ".mcap" and info.bag.path.is_file()
+    got = read_bag(info.bag.path)
+    assert_recordings_equal(got, written["expected"])
+    assert got.missing_sensors == () and got.unmapped_topics == ()
+    assert read_bag_config(info.bag.path) == written["expected"].config
+    n_sensors = len(written["expected"].config.sensors)
+    assert info.bag.n_messages == 1 + n_sensors * 1501  # 30002 samples in 20-sample blocks
+    assert info.bag.topics[0] == "/edefense_pier/pier_configuration"
+
+
+def test_truth_files_lie_beside_the_bag(written):
+    for fmt in ("rosbag2", "mcap"):
+        info = written[fmt]
+        npz, js = truth_paths(info.bag.path)
+        assert (info.truth_npz, info.truth_json) == (npz, js)
+        assert npz.parent == info.bag.path.parent
+        meta = json.loads(js.read_text())
+        assert meta["principal_direction_deg"] == 196.0 and meta["seed"] == 0
+        assert [r["name"] for r in meta["runs"]] == ["run1", "run2"]
+        for key in ("params", "geometry", "ductility_factors", "window_start_ns", "periods_s"):
+            assert key in meta["runs"][0]
+        assert meta["noise"]["l0_acc_ne"]["unit"] == "gal"
+        truth = load_truth(npz, js)
+        assert np.array_equal(truth.runs[1].ductility_factors,
+                              info.truth.runs[1].ductility_factors)
+        assert np.array_equal(truth.runs[0].response.x, info.truth.runs[0].response.x)
+    summary = written["rosbag2"].summary()
+    assert summary["runs"][1]["ductility_factors"][0] > summary["runs"][0]["ductility_factors"][0]
+
+
+def test_uneven_timestamps_gaps_and_duplicates_survive_a_round_trip(written, tmp_path):
+    """Blocks are uniform by definition; the writer splits them so that nothing is lost."""
+    base = written["expected"]
+    rec = base.sensor("l1_acc_n")
+    keep = np.r_[0:100, 110:150, 140:160, 160:230]  # 10 samples dropped, 10 duplicated
+    times = rec.time_ns[keep].copy()
+    times[200:] += 1_234_567  # a clock jump
+    data = rec.data[keep].copy()
+    data[5, 1] = np.nan  # a bad sample is carried, not judged
+    odd = SensorRecord("l1_acc_n", times, data, rec.rate_hz, sample_index=rec.sample_index[keep])
+    wire = base.sensor("l2_wire_w")
+    short = SensorRecord("l2_wire_w", wire.time_ns[:7], wire.data[:7], wire.rate_hz)
+    recording = Recording(base.config, {"l1_acc_n": odd, "l2_wire_w": short})
+    for name in ("odd.mcap", "odd_bag"):
+        summary = write_bag(recording, tmp_path / name, block_s=0.1)
+        got = read_bag(summary.path)
+        assert_recordings_equal(got, recording)
+        assert "l1_acc_w" in got.missing_sensors
+
+
+# --- standard tools read the plain mcap ------------------------------------------------------
+
+
+def test_mcap_tools_decode_the_plain_mcap(written):
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    info = written["mcap"]
+    expected = written["expected"]
+    config = expected.config
+    spec = config.sensor("l4_acc_nw")
+    record = expected.sensor(spec.sensor_id)
+    with info.bag.path.open("rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        assert summary.statistics.message_count == info.bag.n_messages
+        assert {s.name for s in summary.schemas.values()} == {"std_msgs/msg/String",
+                                                              SAMPLE_BLOCK}
+        assert {s.encoding for s in summary.schemas.values()} == {"ros2msg"}
+        configs = [m for _, _, _, m in
+                   reader.iter_decoded_messages(topics=[config_topic(config.pier_id)])]
+        assert len(configs) == 1
+        assert config_from_yaml(configs[0].data) == config
+        blocks = [(msg, m.log_time) for _, _, m, msg in
+                  reader.iter_decoded_messages(topics=[sensor_topic(config.pier_id, spec)])]
+    assert len(blocks) == 1501
+    for i, (msg, log_time) in enumerate(blocks[:50] + blocks[-3:]):
+        first = int(msg.first_sample_index)
+        n = len(msg.data) // 3
+        assert msg.sensor_id == spec.sensor_id == msg.header.frame_id
+        assert (msg.kind, msg.unit, list(msg.axes)) == (0, "m/s^2", ["x", "y", "z"])
+        assert msg.sample_rate_hz == 200.0
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        assert stamp == record.time_ns[first]
+        assert log_time == record.time_ns[first + n - 1]
+        assert np.array_equal(np.reshape(msg.data, (n, 3)), record.data[first:first + n])
+    assert [int(m.first_sample_index) for m, _ in blocks[:3]] == [0, 20, 40]
+
+
+def test_mcap_tools_decode_the_rosbag2_storage_file(written):
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    (storage,) = written["rosbag2"].bag.path.glob("*.mcap")
+    with storage.open("rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        _, _, _, msg = next(iter(reader.iter_decoded_messages(
+            topics=["/edefense_pier/sensors/level0/acc_ne"])))
+        assert msg.unit == "gal" and msg.first_sample_index == 0 and len(msg.data) == 60
+
+
+@pytest.mark.ros
+def test_rclpy_deserializes_the_bag_messages(written):
+    """A live graph gets these bytes on replay: rclpy must decode them to equal messages."""
+    serialization = pytest.importorskip("rclpy.serialization")
+    pier_msgs = pytest.importorskip("pier_monitor_msgs.msg")
+    std_msgs = pytest.importorskip("std_msgs.msg")
+    from rosbags.rosbag2 import Reader
+
+    expected = written["expected"]
+    record = expected.sensor("l3_acc_e")
+    with Reader(written["mcap"].bag.path) as reader:
+        conns = [c for c in reader.connections
+                 if c.topic in ("/edefense_pier/pier_configuration",
+                                "/edefense_pier/sensors/level3/acc_e")]
+        messages = list(reader.messages(connections=conns))
+    config_raw = next(raw for c, _, raw in messages if c.msgtype == "std_msgs/msg/String")
+    text = serialization.deserialize_message(config_raw, std_msgs.String).data
+    assert config_from_yaml(text) == expected.config
+    blocks = [serialization.deserialize_message(raw, pier_msgs.SampleBlock)
+              for c, _, raw in messages if c.msgtype == SAMPLE_BLOCK]
+    assert len(blocks) == 1501
+    data = np.concatenate([np.reshape(np.asarray(b.data), (-1, 3)) for b in blocks])
+    assert np.array_equal(data, record.data)
+    assert [b.first_sample_index for b in blocks[:2]] == [0, 20]
+
+
+# --- errors ----------------------------------------------------------------------------------
+
+
+def test_missing_bag_is_a_bag_error(tmp_path):
+    with pytest.raises(BagError, match="nope.mcap: no such bag"):
+        read_bag(tmp_path / "nope.mcap")
+    (tmp_path / "empty_dir").mkdir()
+    with pytest.raises(BagError, match="empty_dir: not a rosbag2 directory"):
+        read_bag(tmp_path / "empty_dir")
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "rosbag2"])
+def test_truncated_bag_is_a_bag_error_naming_the_file(written, tmp_path, fmt):
+    src = written[fmt].bag.path
+    if fmt == "mcap":
+        bag = tmp_path / "cut.mcap"
+        storage = bag
+        shutil.copy(src, bag)
+    else:
+        bag = tmp_path / "cut_bag"
+        shutil.copytree(src, bag)
+        (storage,) = bag.glob("*.mcap")
+    size = storage.stat().st_size
+    with storage.open("r+b") as fh:
+        fh.truncate(size // 2)
+    with pytest.raises(BagError, match=r"cut(\.mcap|_bag).*truncated or corrupt"):
+        read_bag(bag)
+
+
+def test_corrupt_bytes_are_a_bag_error(written, tmp_path):
+    bag = tmp_path / "garbage.mcap"
+    bag.write_bytes(b"\x89MCAP0\r\n" + bytes(range(256)) * 64)
+    with pytest.raises(BagError, match="garbage.mcap"):
+        read_bag(bag)
+
+
+def _write_raw_rosbag2(path: Path, topics: list[tuple[str, str, list[tuple[int, object]]]]) -> None:
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    typestore = get_typestore()
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        for topic, msgtype, messages in topics:
+            conn = writer.add_connection(topic, msgtype, typestore=typestore)
+            for t_ns, msg in messages:
+                writer.write(conn, t_ns, typestore.serialize_cdr(msg, msgtype))
+
+
+def _block(spec, unit=None):
+    types = get_typestore().types
+    return types[SAMPLE_BLOCK](
+        header=types["std_msgs/msg/Header"](
+            stamp=types["builtin_interfaces/msg/Time"](sec=1, nanosec=0), frame_id=spec.sensor_id),
+        sensor_id=spec.sensor_id, kind=0, unit=unit or spec.unit, sample_rate_hz=200.0,
+        first_sample_index=0, axes=list(spec.axes), data=np.zeros(3 * len(spec.axes)))
+
+
+def test_bag_without_configuration_is_a_bag_error(written, tmp_path):
+    config = written["expected"].config
+    spec = config.sensor("l0_acc_nw")
+    bag = tmp_path / "no_config"
+    _write_raw_rosbag2(bag, [(sensor_topic(config.pier_id, spec), SAMPLE_BLOCK,
+                              [(1_000_000_000, _block(spec))])])
+    with pytest.raises(BagError, match="no_config: no pier configuration in the bag"):
+        read_bag(bag)
+
+
+def test_unknown_message_type_on_a_sensor_topic_is_a_bag_error(written, tmp_path):
+    types = get_typestore().types
+    config = written["expected"].config
+    spec = config.sensor("l0_acc_nw")
+    bag = tmp_path / "wrong_type"
+    _write_raw_rosbag2(bag, [
+        (config_topic(config.pier_id), "std_msgs/msg/String",
+         [(1, types["std_msgs/msg/String"](data=config.to_yaml()))]),
+        (sensor_topic(config.pier_id, spec), "std_msgs/msg/Float64",
+         [(2, types["std_msgs/msg/Float64"](data=1.0))]),
+    ])
+    with pytest.raises(BagError, match=r"wrong_type: unknown message type 'std_msgs/msg/Float64' "
+                                       r"on /edefense_pier/sensors/level0/acc_nw"):
+        read_bag(bag)
+
+
+def test_block_contradicting_the_sensor_map_is_a_bag_error(written, tmp_path):
+    types = get_typestore().types
+    config = written["expected"].config
+    spec = config.sensor("l0_acc_nw")  # m/s^2 in the map
+    bag = tmp_path / "wrong_unit"
+    _write_raw_rosbag2(bag, [
+        (config_topic(config.pier_id), "std_msgs/msg/String",
+         [(1, types["std_msgs/msg/String"](data=config.to_yaml()))]),
+        (sensor_topic(config.pier_id, spec), SAMPLE_BLOCK, [(2, _block(spec, unit="gal"))]),
+    ])
+    with pytest.raises(BagError, match=r"acc_nw at 2 ns: block unit 'gal' but the "
+                                       r"configuration says 'm/s\^2'"):
+        read_bag(bag)
+
+
+def test_writer_refuses_to_overwrite(written, tmp_path):
+    target = tmp_path / "exists.mcap"
+    target.write_bytes(b"")
+    with pytest.raises(BagError, match="exists.mcap: exists already"):
+        write_bag(written["expected"], target)
+    with pytest.raises(BagError, match="edefense: exists already"):
+        write_synthetic_edefense_bag(written["rosbag2"].bag.path)
+
+
+def test_message_definitions_are_found():
+    msg_dir = find_msg_dir()
+    assert (msg_dir / "SampleBlock.msg").is_file()
+    assert SAMPLE_BLOCK in get_typestore().types
+
+
+def test_installed_message_definitions_come_first_then_the_repository(tmp_path, monkeypatch):
+    import sys
+
+    from pier_monitor.core import resources
+
+    installed = tmp_path / "prefix" / "share" / "pier_monitor_msgs" / "msg"
+    installed.mkdir(parents=True)
+    (installed / "SampleBlock.msg").write_text("float64[] data\n")
+    monkeypatch.setattr(sys, "prefix", str(tmp_path / "prefix"))
+    monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
+    assert find_msg_dir() == installed
+    monkeypatch.setattr(sys, "prefix", str(tmp_path / "elsewhere"))
+    assert find_msg_dir() == resources.REPO_ROOT / "msg_defs" / "msg"
+    monkeypatch.setattr(resources, "REPO_ROOT", tmp_path / "no_repo")
+    with pytest.raises(BagError, match=r"cannot find the pier_monitor_msgs message definitions.*"
+                                       r"no_repo/msg_defs/msg"):
+        find_msg_dir()
+
+
+def test_bags_package_imports_no_rclpy():
+    import subprocess
+    import sys
+
+    code = ("import sys, pier_monitor.bags; "
+            "bad = [m for m in ('rclpy', 'torch') if m in sys.modules]; sys.exit(1 if bad else 0)")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
