@@ -22,18 +22,7 @@ from .config import PierGeometry, SpringParameters
 from .errors import InputDataError, SolverError
 from .model import angle_matrix, damping_matrix
 
-try:  # pragma: no cover - exercised implicitly
-    from numba import njit as _njit
-
-    def _jit(fn):
-        return _njit(cache=True, nogil=True)(fn)
-
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover
-    def _jit(fn):
-        return fn
-
-    HAVE_NUMBA = False
+from ._jit import HAVE_NUMBA, jit as _jit
 
 __all__ = ["Response", "simulate", "HAVE_NUMBA"]
 

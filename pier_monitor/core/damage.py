@@ -1,0 +1,172 @@
+"""Damage indices and identification results (SPEC §5, paper §4.5).
+
+``DF_n = max_t |θ_n(t)| / θy_n`` from the reproduced responses; DF < 1.2 intact,
+1.2 <= DF < 1.5 suspicious, DF >= 1.5 damaged.  A spring that never yielded has no
+identifiable ``k2``/``fy``: its DF is only bounded (``DF <= max|θ| k1 / max|f| ≈ 1``) and it is
+reported as intact with the identifiable flags false — never as numbers that look measured.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from enum import IntEnum
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .config import PierGeometry, SpringParameters
+from .errors import InputDataError
+
+__all__ = [
+    "DamageState",
+    "classify_ductility",
+    "ductility_factors",
+    "SectionResult",
+    "IdentificationResult",
+    "build_sections",
+]
+
+SUSPICIOUS_DF = 1.2
+DAMAGED_DF = 1.5
+
+
+class DamageState(IntEnum):
+    """State of a section; the values match ``SectionState.msg``."""
+
+    INTACT = 0
+    SUSPICIOUS = 1
+    DAMAGED = 2
+    UNKNOWN = 3
+
+
+def classify_ductility(df: float) -> DamageState:
+    """Intact / suspicious / damaged from a ductility factor (NaN → unknown)."""
+    if not np.isfinite(df):
+        return DamageState.UNKNOWN
+    if df < SUSPICIOUS_DF:
+        return DamageState.INTACT
+    if df < DAMAGED_DF:
+        return DamageState.SUSPICIOUS
+    return DamageState.DAMAGED
+
+
+def ductility_factors(theta: np.ndarray, params: SpringParameters) -> np.ndarray:
+    """``max_t |θ_n| / θy_n`` for angles of shape (T, N); returns shape (N,)."""
+    theta = np.asarray(theta, dtype=float)
+    if theta.ndim != 2 or theta.shape[1] != params.n_springs:
+        raise InputDataError(f"theta: expected shape (T, {params.n_springs}), got {theta.shape}")
+    return np.max(np.abs(theta), axis=0) / params.yield_angles
+
+
+@dataclass(frozen=True)
+class SectionResult:
+    """Identified state of one section (spring ``index`` + 1 and its damper), SI units."""
+
+    index: int
+    z_bottom_m: float
+    z_top_m: float
+    k1: float
+    k2: float
+    fy: float
+    c: float
+    yield_angle_rad: float
+    max_angle_rad: float
+    ductility_factor: float
+    state: str
+    yielded: bool
+    k2_identifiable: bool
+    fy_identifiable: bool
+    k1_change_pct: float | None = None
+
+    @property
+    def damage_state(self) -> DamageState:
+        """The state as an enum."""
+        return DamageState[self.state.upper()]
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """Result of one identification (one event window)."""
+
+    pier_id: str
+    event_id: str
+    sections: tuple[SectionResult, ...]
+    overall_state: str
+    window_start_s: float
+    window_duration_s: float
+    epochs: int
+    final_loss: float
+    wall_time_s: float
+    device: str
+    success: bool = True
+    message: str = ""
+    settings: dict[str, Any] = field(default_factory=dict)
+    history: dict[str, list[float]] = field(default_factory=dict)
+
+    @property
+    def params(self) -> SpringParameters:
+        """The identified parameters as one set."""
+        return SpringParameters(*(np.array([getattr(s, k) for s in self.sections])
+                                  for k in ("k1", "k2", "fy", "c")))
+
+    @property
+    def ductility_factors(self) -> np.ndarray:
+        """DF per section, shape (N,)."""
+        return np.array([s.ductility_factor for s in self.sections])
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain form for JSON."""
+        d = asdict(self)
+        d["sections"] = [asdict(s) for s in self.sections]
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "IdentificationResult":
+        """Inverse of :meth:`to_dict`."""
+        d = dict(d)
+        d["sections"] = tuple(SectionResult(**s) for s in d["sections"])
+        return cls(**d)
+
+    def save_json(self, path: str | Path) -> None:
+        """Write :meth:`to_dict` as JSON."""
+        Path(path).write_text(json.dumps(self.to_dict(), indent=2, allow_nan=True) + "\n")
+
+    @classmethod
+    def load_json(cls, path: str | Path) -> "IdentificationResult":
+        """Read a file written by :meth:`save_json`."""
+        return cls.from_dict(json.loads(Path(path).read_text()))
+
+
+def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.ndarray,
+                   yielded: np.ndarray, baseline_k1: np.ndarray | None = None
+                   ) -> tuple[SectionResult, ...]:
+    """Per-section results from identified parameters and reproduced angles (T, N).
+
+    For springs that did not yield, ``fy`` is the lower bound ``max|f|`` the fit reports,
+    so the DF given is an upper bound (about 1) and the identifiable flags are false.
+    """
+    z = geometry.level_heights_m
+    max_angle = np.max(np.abs(theta), axis=0)
+    df = max_angle / params.yield_angles
+    out = []
+    for i in range(geometry.n_levels):
+        y = bool(yielded[i])
+        change = None
+        if baseline_k1 is not None:
+            change = float(100.0 * (params.k1[i] / baseline_k1[i] - 1.0))
+        out.append(SectionResult(
+            index=i, z_bottom_m=float(z[i]), z_top_m=float(z[i + 1]), k1=float(params.k1[i]),
+            k2=float(params.k2[i]), fy=float(params.fy[i]), c=float(params.c[i]),
+            yield_angle_rad=float(params.yield_angles[i]), max_angle_rad=float(max_angle[i]),
+            ductility_factor=float(df[i]),
+            state=classify_ductility(df[i]).name.lower(), yielded=y, k2_identifiable=y,
+            fy_identifiable=y, k1_change_pct=change))
+    return tuple(out)
+
+
+def overall_state(sections: tuple[SectionResult, ...]) -> str:
+    """The worst state over the sections."""
+    known = [s.damage_state for s in sections if s.damage_state != DamageState.UNKNOWN]
+    return (max(known) if known else DamageState.UNKNOWN).name.lower()

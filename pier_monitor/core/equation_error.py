@@ -1,0 +1,284 @@
+"""Physics-only equation-error fit of the spring parameters (the PINN's initializer).
+
+On consecutive samples ``i → i+1`` of a window, the bilinear spring of SPEC §3 says::
+
+    f_{i+1} = clip(f_i + k1 (θ_{i+1} − θ_i), k2 θ_{i+1} − s, k2 θ_{i+1} + s),  s = fy (1 − k2/k1)
+
+and the equation of motion, multiplied by ``(Bᵀ)⁻¹``, says ``f + diag(c) θ̇ = g`` with
+``g = (Bᵀ)⁻¹ (−M (ẍ + 1 a_g))``.  With measured moments, ``c`` follows from the second by
+linear least squares and ``k1, k2, fy`` from the first; without them, ``f = g − c θ̇``
+(the paper's eq. 27) and all four parameters come from the first.  Each spring is fitted on
+its own (``f_n`` depends on ``c_n`` only):
+
+1. ``k1`` (and ``c``) by a robust regression of the increments on the pairs that behave
+   elastically (iterative trimming of the pairs that yield);
+2. ``k2, fy`` by a multi-start local least-squares fit with ``k1, c`` held, lowest cost wins;
+3. all parameters of the spring jointly from the best start.
+
+A spring whose bilinear fit is no better than the elastic one never yielded: its ``k2`` and
+``fy`` are not identifiable and are flagged (``fy`` then carries only the lower bound
+``max |f|``).  This module uses no truth and no torch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg, optimize
+
+from .config import PierGeometry, SpringParameters
+from .errors import InputDataError
+from .model import angle_matrix, check_response_array
+
+__all__ = ["SpringFit", "EquationErrorFit", "inertia_moments", "fit_equation_error", "yield_test"]
+
+
+@dataclass(frozen=True)
+class SpringFit:
+    """Fit of one spring.
+
+    Attributes
+    ----------
+    k1, k2, fy, c : float
+        Estimates (SI).  ``k2``/``fy`` are meaningless when ``yielded`` is false.
+    yielded : bool
+        The data show yielding: the bilinear fit is clearly better than the elastic one.
+    cost_bilinear, cost_elastic : float
+        Mean squared hysteresis residuals, (N·m)².
+    n_yield_pairs : int
+        Pairs that end on a yield line under the fitted parameters.
+    """
+
+    k1: float
+    k2: float
+    fy: float
+    c: float
+    yielded: bool
+    cost_bilinear: float
+    cost_elastic: float
+    n_yield_pairs: int
+
+
+@dataclass(frozen=True)
+class EquationErrorFit:
+    """Per-spring fits and the resulting parameter set."""
+
+    springs: tuple[SpringFit, ...]
+    params: SpringParameters
+
+    @property
+    def yielded(self) -> np.ndarray:
+        """Boolean per spring, shape (N,)."""
+        return np.array([s.yielded for s in self.springs])
+
+
+def inertia_moments(geometry: PierGeometry, a_rel: np.ndarray, ag: np.ndarray) -> np.ndarray:
+    """``g = (Bᵀ)⁻¹ (−M (ẍ + 1 a_g))``, the moments the springs and dampers carry, (T, N), N·m."""
+    n = geometry.n_levels
+    a_rel = check_response_array("a_rel", a_rel, n=n)
+    ag = np.asarray(ag, dtype=float)
+    if ag.shape != (a_rel.shape[0],):
+        raise InputDataError(f"ag: expected shape ({a_rel.shape[0]},), got {ag.shape}")
+    b = angle_matrix(geometry.section_heights_m)
+    return linalg.solve(b.T, (-(a_rel + ag[:, None]) * geometry.masses_kg).T).T
+
+
+def _hyst_residual(f: np.ndarray, th: np.ndarray, k1: float, k2: float, fy: float) -> np.ndarray:
+    s = fy * (1.0 - k2 / k1)
+    trial = f[:-1] + k1 * np.diff(th)
+    return f[1:] - np.clip(trial, k2 * th[1:] - s, k2 * th[1:] + s)
+
+
+def _robust_increments(df: np.ndarray, cols: np.ndarray, n_iter: int = 10) -> np.ndarray:
+    """Robust least squares of ``df ≈ cols @ p`` (``cols`` of 1 or 2 columns).
+
+    The pairs that yield follow another slope, possibly on many pairs, so plain trimming
+    from the all-pairs fit can lock onto the wrong branch.  Least-trimmed-squares
+    concentration steps (keep the half with the smallest residuals) from robust starts
+    find the elastic branch; then pairs beyond 4 robust sigmas are trimmed and refitted.
+    """
+    n = df.size
+    half = max(cols.shape[1] + 1, n // 2)
+    big = np.abs(cols[:, 0]) > np.median(np.abs(cols[:, 0]))
+
+    def slope_given(c2: float) -> np.ndarray:
+        rest = df - (cols[:, 1] * c2 if cols.shape[1] > 1 else 0.0)
+        k = float(np.median(rest[big] / cols[big, 0]))
+        return np.array([k, c2]) if cols.shape[1] > 1 else np.array([k])
+
+    if cols.shape[1] == 1:
+        starts = [slope_given(0.0)]
+    else:
+        c_ls = np.linalg.lstsq(cols, df, rcond=None)[0][1]
+        scale = max(abs(c_ls), 1e-12 * np.abs(df).max() / (np.abs(cols[:, 1]).max() + 1e-300))
+        starts = [slope_given(c2) for c2 in np.concatenate(([0.0], scale * np.geomspace(1e-2, 1e2, 25)))]
+    best_p, best_cost = None, np.inf
+    for p in starts:
+        for _ in range(n_iter):
+            r = np.abs(df - cols @ p)
+            keep = np.argsort(r)[:half]
+            p = np.linalg.lstsq(cols[keep], df[keep], rcond=None)[0]
+        cost = float(np.sort((df - cols @ p) ** 2)[:half].sum())
+        if cost < best_cost:
+            best_p, best_cost = p, cost
+    p = best_p
+    keep = np.ones(n, dtype=bool)
+    for _ in range(n_iter):
+        r = df - cols @ p
+        scale = 1.4826 * np.median(np.abs(r)) + 1e-300
+        new_keep = np.abs(r) < 4.0 * scale
+        if new_keep.sum() < half or np.array_equal(new_keep, keep):
+            break
+        keep = new_keep
+        p = np.linalg.lstsq(cols[keep], df[keep], rcond=None)[0]
+    return p
+
+
+def yield_test(theta: np.ndarray, f: np.ndarray, k1: float, k2: float, fy: float,
+               yield_score: float = 50.0) -> tuple[bool, float, float, int]:
+    """Whether one spring's angle/moment history shows yielding.
+
+    Compares the bilinear model with the elastic one (no yield) on consecutive pairs: the
+    spring yielded when some pairs end on a yield line and the yield branch lowers the
+    summed squared residuals by more than ``yield_score`` times the bilinear mean squared
+    residual (an F-type test against the noise floor).
+
+    Parameters
+    ----------
+    theta, f : ndarray, shape (T,)
+        Angle (rad) and moment (N·m) history.
+    k1, k2, fy : float
+        The fitted spring.
+
+    Returns
+    -------
+    yielded, cost_bilinear, cost_elastic, n_yield_pairs
+    """
+    cost_bilinear = float(np.mean(_hyst_residual(f, theta, k1, k2, fy) ** 2))
+    fmax = float(np.max(np.abs(f)))
+    cost_elastic = float(np.mean(_hyst_residual(f, theta, k1, 0.0, 1e6 * fmax + 1.0) ** 2))
+    s = fy * (1 - k2 / k1)
+    trial = f[:-1] + k1 * np.diff(theta)
+    n_yield = int(np.sum((trial >= k2 * theta[1:] + s) | (trial <= k2 * theta[1:] - s)))
+    gain = (theta.size - 1) * (cost_elastic - cost_bilinear) / max(cost_bilinear, 1e-300)
+    return bool(n_yield > 0 and gain > yield_score), cost_bilinear, cost_elastic, n_yield
+
+
+def _fit_one(theta: np.ndarray, g: np.ndarray, theta_dot: np.ndarray, f_meas: np.ndarray | None,
+             init: tuple[float, float, float, float], yield_score: float) -> SpringFit:
+    k1_0, k2_0, fy_0, c_0 = init
+    if f_meas is not None:
+        # c from f + c θ̇ = g (linear), k1 from elastic increments of the measured moments
+        c = float(np.clip(np.dot(theta_dot, g - f_meas) / max(np.dot(theta_dot, theta_dot),
+                                                                1e-300), 0.0, None))
+        k1 = float(_robust_increments(np.diff(f_meas), np.diff(theta)[:, None])[0])
+
+        def moments(c_: float) -> np.ndarray:
+            return f_meas
+    else:
+        cols = np.column_stack([np.diff(theta), np.diff(theta_dot)])
+        k1, c = (float(v) for v in _robust_increments(np.diff(g), cols))
+        c = max(c, 0.0)
+
+        def moments(c_: float) -> np.ndarray:
+            return g - c_ * theta_dot
+    k1 = k1 if k1 > 0 else k1_0
+    f = moments(c)
+    fmax = float(np.max(np.abs(f)))
+
+    # multi-start for (k2, fy) with k1, c held
+    def res_k2fy(p: np.ndarray) -> np.ndarray:
+        return _hyst_residual(f, theta, k1, k1 * p[0], fmax * p[1])
+
+    best = None
+    for ratio in (0.02, 0.1, 0.3):
+        for share in np.linspace(0.3, 1.0, 8):
+            sol = optimize.least_squares(res_k2fy, [ratio, share], bounds=([0.0, 1e-3], [0.5, 2.0]),
+                                         x_scale=[0.1, 0.1], method="trf")
+            if best is None or sol.cost < best.cost:
+                best = sol
+    k2, fy = k1 * float(best.x[0]), fmax * float(best.x[1])
+
+    # joint refinement of the spring
+    free_c = f_meas is None
+    x0 = np.array([1.0, max(k2 / k1, 1e-4), fy / fmax] + ([1.0] if free_c else []))
+    c_ref = max(c, 1e-6 * k1)
+
+    def res_all(p: np.ndarray) -> np.ndarray:
+        cc = c_ref * p[3] if free_c else c
+        return _hyst_residual(moments(cc), theta, k1 * p[0], k1 * p[0] * p[1], fmax * p[2])
+
+    lo = [0.5, 0.0, 1e-3] + ([0.0] if free_c else [])
+    hi = [2.0, 0.5, 2.0] + ([10.0] if free_c else [])
+    sol = optimize.least_squares(res_all, np.clip(x0, lo, hi), bounds=(lo, hi), method="trf",
+                                 x_scale="jac")
+    k1 = k1 * float(sol.x[0])
+    k2 = k1 * float(sol.x[1])
+    fy = fmax * float(sol.x[2])
+    if free_c:
+        c = c_ref * float(sol.x[3])
+    f = moments(c)
+    yielded, cost_bilinear, cost_elastic, n_yield = yield_test(theta, f, k1, k2, fy, yield_score)
+    if not yielded:
+        # elastic spring: re-fit k1 (and c) without the yield branch, fy only bounded below
+        def res_el(p: np.ndarray) -> np.ndarray:
+            cc = c_ref * p[1] if free_c else c
+            return _hyst_residual(moments(cc), theta, k1 * p[0], 0.0, 1e6 * fmax + 1.0)
+
+        sol = optimize.least_squares(res_el, [1.0] + ([c / c_ref] if free_c else []),
+                                     method="trf", x_scale="jac")
+        k1 = k1 * float(sol.x[0])
+        if free_c:
+            c = c_ref * float(sol.x[1])
+        fy = float(np.max(np.abs(moments(c))))
+        k2 = min(k2_0, 0.5 * k1) if k2_0 > 0 else 0.1 * k1
+        n_yield = 0
+    return SpringFit(k1=k1, k2=k2, fy=fy, c=c, yielded=yielded, cost_bilinear=cost_bilinear,
+                     cost_elastic=cost_elastic, n_yield_pairs=n_yield)
+
+
+def fit_equation_error(geometry: PierGeometry, x: np.ndarray, v: np.ndarray, a: np.ndarray,
+                       ag: np.ndarray, init: SpringParameters, moments: np.ndarray | None = None,
+                       yield_score: float = 50.0) -> EquationErrorFit:
+    """Fit ``k1, k2, fy, c`` of every spring to a window of measured responses.
+
+    Parameters
+    ----------
+    geometry : PierGeometry
+        Heights and masses.
+    x, v, a : ndarray, shape (T, N)
+        Relative displacement (m), velocity (m/s), acceleration (m/s²), uniformly sampled.
+    ag : ndarray, shape (T,)
+        Foundation acceleration, m/s².
+    init : SpringParameters
+        Starting values; used only where the data say nothing (elastic springs' ``k2``).
+    moments : ndarray, shape (T, N), optional
+        Measured restoring moments, N·m; when absent they are estimated (eq. 27).
+    yield_score : float
+        A spring counts as yielded when the yield branch lowers the summed squared
+        residuals by more than this many times the bilinear fit's mean squared residual
+        (an F-type test against the noise floor).
+    """
+    n = geometry.n_levels
+    x = check_response_array("x", x, n=n)
+    t_len = x.shape[0]
+    v = check_response_array("v", v, n=n, length=t_len)
+    a = check_response_array("a", a, n=n, length=t_len)
+    if moments is not None:
+        moments = check_response_array("moments", moments, n=n, length=t_len)
+    if init.n_springs != n:
+        raise InputDataError(f"init: expected {n} springs, got {init.n_springs}")
+    if t_len < 10:
+        raise InputDataError(f"window: expected at least 10 samples, got {t_len}")
+    b = angle_matrix(geometry.section_heights_m)
+    theta, theta_dot = x @ b.T, v @ b.T
+    g = inertia_moments(geometry, a, ag)
+    fits = tuple(
+        _fit_one(theta[:, i], g[:, i], theta_dot[:, i],
+                 None if moments is None else moments[:, i],
+                 (init.k1[i], init.k2[i], init.fy[i], init.c[i]), yield_score)
+        for i in range(n))
+    params = SpringParameters(np.array([f.k1 for f in fits]), np.array([f.k2 for f in fits]),
+                              np.array([f.fy for f in fits]), np.array([f.c for f in fits]))
+    return EquationErrorFit(springs=fits, params=params)
