@@ -1,0 +1,76 @@
+"""The PINN's network: time in, the ``8N`` responses at ``t`` and ``t + Δt`` out.
+
+Two architectures:
+
+* ``"fourier"`` (default): Fourier features ``sin/cos(π j τ)``, ``j = 1..J``, of the scaled
+  time ``τ ∈ [-1, 1]`` in front of an MLP with tanh.  A plain-``t`` input cannot follow a
+  seismic record closely enough for the parameters to come out right.
+* ``"paper"``: the paper's ``q`` fully connected layers of ``p`` units with ReLU and batch
+  normalisation, input ``τ``.
+
+The output is either the responses themselves in units of their scales (``residual=False``,
+the paper) or a correction to the measured responses in units of their noise
+(``residual=True``): the network then starts at the data and learns only what the physics
+asks it to change.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import nn
+
+__all__ = ["ResponseNet"]
+
+
+class ResponseNet(nn.Module):
+    """``τ`` of shape (P, 1) → outputs of shape (P, n_out).
+
+    Parameters
+    ----------
+    n_out : int
+        Number of outputs (``8N``).
+    arch : {"fourier", "paper"}
+        Architecture (see the module docstring).
+    hidden : int
+        Units per hidden layer (the paper's ``p``).
+    layers : int
+        Hidden layers (the paper's ``q``).
+    n_fourier : int
+        Number of frequencies ``J`` of the Fourier features.
+    """
+
+    def __init__(self, n_out: int, arch: str = "fourier", hidden: int = 64, layers: int = 3,
+                 n_fourier: int = 64) -> None:
+        super().__init__()
+        if arch not in ("fourier", "paper"):
+            raise ValueError(f"arch: expected 'fourier' or 'paper', got {arch!r}")
+        self.arch = arch
+        mods: list[nn.Module] = []
+        if arch == "fourier":
+            self.register_buffer("freqs", math.pi * torch.arange(1, n_fourier + 1,
+                                                                dtype=torch.float64))
+            width = 2 * n_fourier
+            for _ in range(layers):
+                mods += [nn.Linear(width, hidden), nn.Tanh()]
+                width = hidden
+        else:
+            self.register_buffer("freqs", torch.zeros(0, dtype=torch.float64))
+            width = 1
+            for _ in range(layers):
+                mods += [nn.Linear(width, hidden), nn.ReLU(), nn.BatchNorm1d(hidden)]
+                width = hidden
+        self.body = nn.Sequential(*mods)
+        self.head = nn.Linear(width, n_out)
+        nn.init.zeros_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    def forward(self, tau: torch.Tensor) -> torch.Tensor:
+        """Outputs for scaled times ``tau`` of shape (P, 1)."""
+        if self.arch == "fourier":
+            z = tau * self.freqs
+            h = torch.cat([torch.sin(z), torch.cos(z)], dim=-1)
+        else:
+            h = tau
+        return self.head(self.body(h))

@@ -1,0 +1,95 @@
+"""Physics residuals of the PINN (paper eqs. 20-26 with SPEC §3's corrections), in torch.
+
+All residuals are evaluated on training pairs ``(t, t + Δt)``.  Responses come as tensors
+of shape ``(P, N)`` (``P`` pairs, ``N`` levels); parameters as tensors of shape ``(..., N)``
+so that a batch of parameter sets (the paper's update rule tries several at once) broadcasts
+to residuals of shape ``(..., P, N)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+__all__ = ["PairTensors", "Physics"]
+
+
+@dataclass
+class PairTensors:
+    """Responses at the two instants of every pair; each tensor has shape (P, N)."""
+
+    a0: torch.Tensor
+    v0: torch.Tensor
+    x0: torch.Tensor
+    f0: torch.Tensor
+    a1: torch.Tensor
+    v1: torch.Tensor
+    x1: torch.Tensor
+    f1: torch.Tensor
+
+
+class Physics:
+    """The link model's matrices and residual functions on one device.
+
+    Parameters
+    ----------
+    b : tensor, shape (N, N)
+        Angle matrix ``B`` (``θ = B x``), 1/m.
+    masses : tensor, shape (N,)
+        Lumped masses, kg.
+    dt : float
+        Pair spacing ``Δt`` (the data's sampling period), s.
+    """
+
+    def __init__(self, b: torch.Tensor, masses: torch.Tensor, dt: float) -> None:
+        self.b = b
+        self.bt = b.T.contiguous()
+        self.m = masses
+        self.dt = dt
+        self.bt_inv = torch.linalg.inv(self.bt)
+
+    def angles(self, x: torch.Tensor) -> torch.Tensor:
+        """``θ = B x`` for ``x`` of shape (P, N)."""
+        return x @ self.b.T
+
+    def eom(self, a: torch.Tensor, v: torch.Tensor, f: torch.Tensor, ag: torch.Tensor,
+            c: torch.Tensor) -> torch.Tensor:
+        """``M(ẍ + 1 a_g) + Bᵀ diag(c) B ẋ + Bᵀ f`` (eq. 21), N; shape (..., P, N)."""
+        damper = (self.angles(v) * c.unsqueeze(-2)) @ self.b  # (..., P, N): Bᵀ diag(c) B ẋ
+        return self.m * (a + ag[:, None]) + damper + f @ self.b
+
+    def newmark_acceleration(self, p: PairTensors, ag1: torch.Tensor,
+                             c: torch.Tensor) -> torch.Tensor:
+        """Eq. 22 as a residual, m/s²: ``(M + Δt/2 C) ẍ1 + M a_g1 + Bᵀ f1 + C (ẋ0 + Δt/2 ẍ0)``,
+        divided by the masses (the paper's explicit inverse is avoided; same zero set)."""
+        h = 0.5 * self.dt
+        lhs = self.eom(p.a1, p.v0 + h * p.a0 + h * p.a1, p.f1, ag1, c)
+        return lhs / self.m
+
+    def newmark_velocity(self, p: PairTensors) -> torch.Tensor:
+        """Eq. 23: ``ẋ1 − ẋ0 − Δt/2 (ẍ0 + ẍ1)``, m/s."""
+        return p.v1 - p.v0 - 0.5 * self.dt * (p.a0 + p.a1)
+
+    def newmark_displacement(self, p: PairTensors) -> torch.Tensor:
+        """Eq. 24 with SPEC's correction: ``x1 − x0 − Δt ẋ0 − Δt²/3 ẍ0 − Δt²/6 ẍ1``, m."""
+        dt = self.dt
+        return p.x1 - p.x0 - dt * p.v0 - dt * dt / 3.0 * p.a0 - dt * dt / 6.0 * p.a1
+
+    def hysteresis(self, p: PairTensors, k1: torch.Tensor, k2: torch.Tensor,
+                   fy: torch.Tensor) -> torch.Tensor:
+        """Incremental bilinear residual (SPEC §3), N·m; shape (..., P, N).
+
+        ``f1 − clip(f0 + k1 (θ1 − θ0), k2 θ1 − s, k2 θ1 + s)``, ``s = fy (1 − k2/k1)``.
+        """
+        th0, th1 = self.angles(p.x0), self.angles(p.x1)
+        k1, k2, fy = k1.unsqueeze(-2), k2.unsqueeze(-2), fy.unsqueeze(-2)
+        s = fy * (1.0 - k2 / k1)
+        trial = p.f0 + k1 * (th1 - th0)
+        return p.f1 - torch.minimum(torch.maximum(trial, k2 * th1 - s), k2 * th1 + s)
+
+    def estimated_moments(self, a: torch.Tensor, v: torch.Tensor, ag: torch.Tensor,
+                          c: torch.Tensor) -> torch.Tensor:
+        """Eq. 27: ``(Bᵀ)⁻¹(−M(ẍ + 1 a_g)) − diag(c) B ẋ``, N·m; shape (..., P, N)."""
+        g = (-(a + ag[:, None]) * self.m) @ self.bt_inv.T
+        return g - self.angles(v) * c.unsqueeze(-2)

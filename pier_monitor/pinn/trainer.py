@@ -1,0 +1,511 @@
+"""Training the PINN: network and dynamic parameters together (paper §4, SPEC §4).
+
+Loss ``L = w_d L1 + w_p (L2 + … + L6)`` on the training pairs ``(t_i, t_i + Δt)``:
+
+* ``L1`` data misfit of the measured quantities, each in units of its largest measured
+  value (the paper's α1-α4 = reciprocals of the maxima); a quantity that is not measured
+  gets weight 0 — unmeasured moments are replaced by the estimated moments of eq. 27 with
+  the current damping, so they follow ``c`` as it moves;
+* ``L2`` equation of motion at ``t`` and ``t+Δt`` (in units of the largest inertia force
+  per level), ``L3`` Newmark acceleration update (units of max ẍ), ``L4``/``L5`` Newmark
+  velocity/displacement increments on absolute scales (max ẋ, max x: the paper's α7 = α2,
+  α8 = α3), ``L6`` incremental hysteresis (units of each spring's largest moment).
+
+The data term outweighs the physics by ``data_weight / physics_weight`` (default 10⁴).
+Parameters are optimised as log-values under Adam with projection (``k2 <= k1/2``,
+``fy`` below the largest plausible yield moment) — or with the paper's Fig. 6 rule
+(``param_rule="paper"``).  By default they start from a physics-only equation-error fit
+(:mod:`pier_monitor.core.equation_error`, itself started from the design values), which
+also tells which springs yielded; ``k2``/``fy`` of springs that did not are held and
+flagged as not identifiable.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+import torch
+
+from ..core.config import SpringParameters
+from ..core.damage import IdentificationResult, build_sections, overall_state
+from ..core.equation_error import fit_equation_error, inertia_moments, yield_test
+from ..core.errors import IdentificationError, InputDataError
+from ..core.model import angle_matrix
+from ..core.window import MeasuredWindow
+from .network import ResponseNet
+from .physics import PairTensors, Physics
+
+__all__ = ["PAPER_TERM_WEIGHTS", "DEFAULT_TERM_WEIGHTS", "PinnSettings", "Progress", "Reproduced", "IdentificationRun", "identify",
+           "resolve_device"]
+
+log = logging.getLogger(__name__)
+
+TERMS = ("data", "eom", "newmark_a", "newmark_v", "newmark_x", "hysteresis")
+
+#: Relative weights of the physics terms, the paper's: α5 = 0.01 α4 (equation of motion),
+#: α6 = 1e-4 α1 (eq. 22), α7 = α2 and α8 = α3 (Newmark increments), α9 = 0.01 α4 (hysteresis).
+PAPER_TERM_WEIGHTS = {"eom": 1e-2, "newmark_a": 1e-4, "newmark_v": 1.0, "newmark_x": 1.0,
+                      "hysteresis": 1e-2}
+
+#: The default: the paper's weights without eq. 22.  Eq. 22 is eq. 21 at ``t+Δt`` with the
+#: velocity replaced by its trapezoid update (eq. 23); on data sampled at 100 Hz the trapezoid
+#: is off by about 1.5 % of max|Δẋ|, and eq. 22 multiplies that error by the damping matrix,
+#: so minimising it drags ``c`` towards zero (measured on the paper case without moments:
+#: c −2 % to −20 % with it, within 0.3 % without it).  Eqs. 21 and 23 keep what it says.
+DEFAULT_TERM_WEIGHTS = dict(PAPER_TERM_WEIGHTS, newmark_a=0.0)
+
+
+@dataclass
+class PinnSettings:
+    """Settings of one identification (defaults: the benchmarked configuration).
+
+    Attributes
+    ----------
+    pair_stride : int
+        Training pairs every ``pair_stride`` samples (``t_s = pair_stride · Δt``; the paper
+        used 0.1-0.5 s; 1 = every consecutive pair of the window).
+    arch, hidden, layers, n_fourier :
+        Network (see :class:`~pier_monitor.pinn.network.ResponseNet`); ``n_fourier = 0``
+        picks ``min(32, P // 4)`` frequencies.
+    residual : bool
+        Network outputs are corrections to the measured data (in noise units).
+    max_epochs, min_epochs, warmup_epochs : int
+        Epoch limits; ``warmup_epochs`` data-only epochs with frozen parameters first.
+    lr_network, lr_params : float
+        Adam learning rates (parameters as log-values).
+    data_weight, physics_weight : float
+        ``w_d`` and ``w_p``.
+    term_weights : dict
+        Relative weights of the physics terms (default :data:`DEFAULT_TERM_WEIGHTS`;
+        :data:`PAPER_TERM_WEIGHTS` are the paper's).
+    param_rule : {"adam", "paper"}
+        Parameter update: Adam on log-parameters, or the paper's Fig. 6 rule.
+    paper_lr2 : float
+        The paper's ``lr2`` (step as a share of the initial value).
+    init : {"equation_error", "design"}
+        Starting parameters: the equation-error fit, or the window's design values.
+    patience, tol :
+        Early stopping: stop once no parameter moved by more than ``tol`` (relative) over
+        ``patience`` epochs.
+    device : {"auto", "cpu", "cuda"}
+    seed : int
+    yield_score : float
+        Threshold of the yield test (see :func:`~pier_monitor.core.equation_error.yield_test`).
+    """
+
+    pair_stride: int = 1
+    arch: str = "fourier"
+    hidden: int = 32
+    layers: int = 2
+    n_fourier: int = 0
+    residual: bool = True
+    max_epochs: int = 3000
+    min_epochs: int = 300
+    warmup_epochs: int = 0
+    lr_network: float = 1e-3
+    lr_params: float = 1e-3
+    data_weight: float = 1.0
+    physics_weight: float = 1e-2
+    term_weights: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_TERM_WEIGHTS))
+    param_rule: str = "adam"
+    paper_lr2: float = 1e-3
+    init: str = "equation_error"
+    patience: int = 200
+    tol: float = 2e-5
+    device: str = "auto"
+    seed: int = 0
+    yield_score: float = 50.0
+
+    def validate(self) -> None:
+        """Raise :class:`InputDataError` naming the first bad setting."""
+        checks = [
+            ("pair_stride", self.pair_stride >= 1),
+            ("arch", self.arch in ("fourier", "paper")),
+            ("hidden", self.hidden >= 1), ("layers", self.layers >= 1),
+            ("n_fourier", self.n_fourier >= 0),
+            ("max_epochs", self.max_epochs >= 1),
+            ("min_epochs", 0 <= self.min_epochs <= self.max_epochs),
+            ("warmup_epochs", self.warmup_epochs >= 0),
+            ("lr_network", self.lr_network > 0), ("lr_params", self.lr_params > 0),
+            ("data_weight", self.data_weight > 0), ("physics_weight", self.physics_weight > 0),
+            ("term_weights", set(self.term_weights) <= set(TERMS[1:])
+             and all(v >= 0 for v in self.term_weights.values())),
+            ("param_rule", self.param_rule in ("adam", "paper")),
+            ("paper_lr2", self.paper_lr2 > 0),
+            ("init", self.init in ("equation_error", "design")),
+            ("patience", self.patience >= 1), ("tol", self.tol > 0),
+            ("device", self.device in ("auto", "cpu", "cuda")),
+        ]
+        for name, ok in checks:
+            if not ok:
+                raise InputDataError(f"PINN setting {name}: invalid value {getattr(self, name)!r}")
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What the trainer reports to the callback after each epoch."""
+
+    epoch: int
+    max_epochs: int
+    loss: float
+    terms: dict[str, float]
+    k1: np.ndarray
+    k2: np.ndarray
+    fy: np.ndarray
+    c: np.ndarray
+    elapsed_s: float
+
+
+@dataclass(frozen=True)
+class Reproduced:
+    """Responses reproduced by the trained network over the window, time-first, SI."""
+
+    t: np.ndarray
+    a: np.ndarray
+    v: np.ndarray
+    x: np.ndarray
+    theta: np.ndarray
+    moment: np.ndarray
+
+
+@dataclass(frozen=True)
+class IdentificationRun:
+    """Everything one identification produced."""
+
+    result: IdentificationResult
+    reproduced: Reproduced
+    initial: SpringParameters
+    history: dict[str, list[Any]] = field(default_factory=dict)
+
+
+def resolve_device(name: str) -> torch.device:
+    """``auto`` → CUDA when present, else CPU (with a log line); ``cuda`` without a GPU raises."""
+    if name == "cpu":
+        return torch.device("cpu")
+    if torch.cuda.is_available():
+        return torch.device("cuda")
+    if name == "cuda":
+        raise IdentificationError("device 'cuda' requested but no CUDA GPU is available")
+    log.info("no CUDA GPU found: training on the CPU")
+    return torch.device("cpu")
+
+
+class _Problem:
+    """Tensors and loss of one window on one device."""
+
+    def __init__(self, window: MeasuredWindow, settings: PinnSettings, device: torch.device,
+                 init: SpringParameters) -> None:
+        self.window = window
+        self.settings = settings
+        self.device = device
+        dt_ = torch.float64
+        n = window.n_levels
+        self.n = n
+        tt = lambda arr: torch.tensor(np.asarray(arr, dtype=float), dtype=dt_, device=device)
+        b = angle_matrix(window.geometry.section_heights_m)
+        self.phys = Physics(tt(b), tt(window.geometry.masses_kg), window.dt)
+        t_len = window.t.size
+        self.idx0 = np.arange(0, t_len - 1, settings.pair_stride)
+        idx1 = self.idx0 + 1
+        span = window.t[-1] - window.t[0]
+        self.tau_all = tt(2.0 * (window.t - window.t[0]) / span - 1.0)[:, None]
+        self.tau = self.tau_all[self.idx0]
+        self.ag0, self.ag1 = tt(window.ag[self.idx0]), tt(window.ag[idx1])
+        self.ag_all = tt(window.ag)
+        data = {"a": window.a, "v": window.v, "x": window.x}
+        self.measured_f = window.moments is not None
+        if self.measured_f:
+            data["f"] = window.moments
+        self.data0 = {k: tt(v[self.idx0]) for k, v in data.items()}
+        self.data1 = {k: tt(v[idx1]) for k, v in data.items()}
+        self.data_all = {k: tt(v) for k, v in data.items()}
+        # scales (α of the paper) from the measured maxima
+        f_ref = window.moments if self.measured_f else (
+            inertia_moments(window.geometry, window.a, window.ag)
+            - (window.v @ b.T) * init.c)
+        self.scale = {"a": float(np.abs(window.a).max()), "v": float(np.abs(window.v).max()),
+                      "x": float(np.abs(window.x).max()),
+                      "f": tt(np.abs(f_ref).max(axis=0))}
+        inertia = np.abs((window.a + window.ag[:, None]) * window.geometry.masses_kg).max(axis=0)
+        self.scale_eom = tt(inertia)
+        self.f_cap = tt(2.0 * np.abs(f_ref).max(axis=0))  # largest plausible yield moment
+        # noise scales of the residual network's corrections
+        sig = window.sigma
+        self.noise = {}
+        for q in ("a", "v", "x", "f"):
+            s = sig.get(q)
+            default = 1e-3 * (self.scale[q] if q != "f" else float(self.scale["f"].max()))
+            val = np.full(n, default) if s is None else np.broadcast_to(np.asarray(s, float), (n,))
+            self.noise[q] = tt(np.maximum(val, 1e-9 * (default / 1e-3)))
+
+    def outputs(self, net: ResponseNet, c: torch.Tensor, tau: torch.Tensor,
+                idx0: np.ndarray | None) -> tuple[PairTensors, dict[str, torch.Tensor]]:
+        """Network outputs as responses; also the data targets at those times."""
+        n = self.n
+        raw = net(tau).reshape(-1, 2, 4, n)  # (P, instant, quantity, N)
+        if idx0 is None:  # training pairs
+            d0, d1, ag0, ag1 = self.data0, self.data1, self.ag0, self.ag1
+        else:
+            d0 = {k: v[idx0] for k, v in self.data_all.items()}
+            d1 = {k: v[idx0 + 1] for k, v in self.data_all.items()}
+            ag0, ag1 = self.ag_all[idx0], self.ag_all[idx0 + 1]
+        if not self.measured_f:
+            d0 = dict(d0, f=self.phys.estimated_moments(d0["a"], d0["v"], ag0, c))
+            d1 = dict(d1, f=self.phys.estimated_moments(d1["a"], d1["v"], ag1, c))
+        out = []
+        for inst, d in ((0, d0), (1, d1)):
+            for qi, q in enumerate(("a", "v", "x", "f")):
+                if self.settings.residual:
+                    out.append(d[q] + self.noise[q] * raw[:, inst, qi])
+                else:
+                    s = self.scale[q]
+                    out.append(s * raw[:, inst, qi])
+        pairs = PairTensors(*out)
+        targets = {"a0": d0["a"], "v0": d0["v"], "x0": d0["x"], "f0": d0["f"],
+                   "a1": d1["a"], "v1": d1["v"], "x1": d1["x"], "f1": d1["f"],
+                   "ag0": ag0, "ag1": ag1}
+        return pairs, targets
+
+    def loss_terms(self, p: PairTensors, tg: dict[str, torch.Tensor], k1: torch.Tensor,
+                   k2: torch.Tensor, fy: torch.Tensor, c: torch.Tensor
+                   ) -> dict[str, torch.Tensor]:
+        """Loss terms; parameter tensors of shape (..., N) give terms of shape (...)."""
+        ms = lambda r: (r ** 2).mean(dim=(-2, -1))
+        sc = self.scale
+        data = 0.0
+        for q in ("a", "v", "x", "f"):  # unmeasured f: eq. 27's estimate is the target
+            for inst in "01":
+                data = data + ms((getattr(p, q + inst) - tg[q + inst]) / sc[q])
+        ph = self.phys
+        eom = 0.5 * (ms(ph.eom(p.a0, p.v0, p.f0, tg["ag0"], c) / self.scale_eom)
+                     + ms(ph.eom(p.a1, p.v1, p.f1, tg["ag1"], c) / self.scale_eom))
+        return {
+            "data": data / 8.0,
+            "eom": eom,
+            "newmark_a": ms(ph.newmark_acceleration(p, tg["ag1"], c) / sc["a"]),
+            "newmark_v": ms(ph.newmark_velocity(p) / sc["v"]),
+            "newmark_x": ms(ph.newmark_displacement(p) / sc["x"]),
+            "hysteresis": ms(ph.hysteresis(p, k1, k2, fy) / sc["f"]),
+        }
+
+    def total(self, terms: dict[str, torch.Tensor]) -> torch.Tensor:
+        s = self.settings
+        physics = sum(s.term_weights.get(k, 1.0) * terms[k] for k in TERMS[1:])
+        return s.data_weight * terms["data"] + s.physics_weight * physics
+
+
+def _params_from_log(logp: torch.Tensor, ref: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    k = ref * torch.exp(logp)
+    return k[..., 0, :], k[..., 1, :], k[..., 2, :], k[..., 3, :]
+
+
+def _project(logp: torch.Tensor, ref: torch.Tensor, f_cap: torch.Tensor) -> None:
+    """In place: ``k2 <= k1/2`` and ``fy <= f_cap`` (positivity holds by the log form)."""
+    with torch.no_grad():
+        k1, k2, fy, _ = _params_from_log(logp, ref)
+        logp[1] = torch.log(torch.minimum(k2, 0.5 * k1) / ref[1])
+        logp[2] = torch.log(torch.minimum(fy, f_cap) / ref[2])
+
+
+def _paper_rule_step(problem: _Problem, pairs: PairTensors, tg: dict[str, torch.Tensor],
+                     k: torch.Tensor, k_in: torch.Tensor, lr2: float,
+                     free: torch.Tensor) -> torch.Tensor:
+    """The paper's Fig. 6 rule on all 4N parameters at once; returns the new values (4, N).
+
+    For each parameter: the loss at ``K``, ``K + lr2 K_in`` and ``K − lr2 K_in`` (the others
+    held); keep the best; cancel a move that breaks a constraint (all positive,
+    ``k1 >= 2 k2``, ``fy`` below the largest plausible yield moment).
+    """
+    n = k.shape[1]
+    cands = [k]
+    for sign in (1.0, -1.0):
+        for j in range(4):
+            for i in range(n):
+                kk = k.clone()
+                kk[j, i] = kk[j, i] + sign * lr2 * k_in[j, i]
+                cands.append(kk)
+    batch = torch.stack(cands)  # (S, 4, N)
+    with torch.no_grad():
+        if not problem.measured_f:
+            # estimated moments are linear in c: f̂(c') = f̂(c) − θ̇ (c' − c), outputs follow
+            dc = (batch[:, 3, :] - k[3]).unsqueeze(-2)  # (S, 1, N)
+            sh0 = -problem.phys.angles(tg["v0"]) * dc
+            sh1 = -problem.phys.angles(tg["v1"]) * dc
+            shifted = problem.settings.residual
+            pairs = PairTensors(pairs.a0, pairs.v0, pairs.x0, pairs.f0 + sh0 * shifted,
+                                pairs.a1, pairs.v1, pairs.x1, pairs.f1 + sh1 * shifted)
+            tg = dict(tg, f0=tg["f0"] + sh0, f1=tg["f1"] + sh1)
+        terms = problem.loss_terms(pairs, tg, batch[:, 0], batch[:, 1], batch[:, 2],
+                                   batch[:, 3])
+        loss = problem.total(terms)
+    base = loss[0]
+    plus = loss[1:1 + 4 * n].reshape(4, n)
+    minus = loss[1 + 4 * n:].reshape(4, n)
+    step = torch.zeros_like(k)
+    step = torch.where((plus < base) & (plus <= minus), lr2 * k_in, step)
+    step = torch.where((minus < base) & (minus < plus), -lr2 * k_in, step)
+    step = step * free
+    new = k + step
+    # a move is cancelled when it breaks a rule that the parameter it changes takes part in
+    ok = new > 0
+    ok[0] &= new[0] >= 2 * k[1]
+    ok[1] &= k[0] >= 2 * new[1]
+    ok[2] &= (new[2] <= problem.f_cap) | (step[2] < 0)
+    return torch.where(ok, new, k)
+
+
+def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
+             callback: Callable[[Progress], None] | None = None,
+             baseline_k1: np.ndarray | None = None) -> IdentificationRun:
+    """Identify ``k1, k2, fy, c`` of every spring of a measured window with the PINN.
+
+    Parameters
+    ----------
+    window : MeasuredWindow
+        The event window (relative responses, foundation acceleration, design values).
+    settings : PinnSettings, optional
+        Training settings; the defaults are the benchmarked ones.
+    callback : callable, optional
+        Called with a :class:`Progress` after every epoch.
+    baseline_k1 : ndarray, shape (N,), optional
+        Reference ``k1`` for the change in the results (design values when omitted).
+
+    Raises
+    ------
+    IdentificationError
+        When the loss becomes NaN/Inf, or ``device="cuda"`` without a GPU.
+    """
+    settings = settings or PinnSettings()
+    settings.validate()
+    device = resolve_device(settings.device)
+    t_start = time.perf_counter()
+    torch.manual_seed(settings.seed)
+    np.random.seed(settings.seed)
+    geometry = window.geometry
+
+    # starting point
+    if settings.init == "equation_error":
+        fit = fit_equation_error(geometry, window.x, window.v, window.a, window.ag, window.design,
+                                 moments=window.moments, yield_score=settings.yield_score)
+        init, yielded0 = fit.params, fit.yielded
+    else:
+        init, yielded0 = window.design, np.ones(window.n_levels, dtype=bool)
+
+    problem = _Problem(window, settings, device, init)
+    n = window.n_levels
+    n_pairs = problem.idx0.size
+    n_fourier = settings.n_fourier or int(min(32, max(8, n_pairs // 4)))
+    net = ResponseNet(8 * n, settings.arch, settings.hidden, settings.layers,
+                      n_fourier).to(device=device, dtype=torch.float64)
+    ref = torch.as_tensor(np.stack([init.k1, init.k2, init.fy, init.c]), dtype=torch.float64,
+                          device=device)
+    ref = torch.where(ref > 0, ref, torch.ones_like(ref))
+    logp = torch.zeros_like(ref, requires_grad=True)
+    # held parameters: k2, fy of springs that did not yield
+    free = torch.ones_like(ref)
+    held = torch.as_tensor(~yielded0, device=device)
+    free[1] = torch.where(held, 0.0, 1.0)
+    free[2] = torch.where(held, 0.0, 1.0)
+    opt_net = torch.optim.Adam(net.parameters(), lr=settings.lr_network)
+    opt_par = torch.optim.Adam([logp], lr=settings.lr_params)
+    history: dict[str, list[Any]] = {k: [] for k in ("loss", *TERMS)}
+    history["params"] = []
+    recent: list[torch.Tensor] = []
+    epoch = 0
+    loss_val = float("nan")
+    for epoch in range(1, settings.max_epochs + settings.warmup_epochs + 1):
+        warm = epoch <= settings.warmup_epochs
+        k1, k2, fy, c = _params_from_log(logp, ref)
+        pairs, tg = problem.outputs(net, c, problem.tau, None)
+        terms = problem.loss_terms(pairs, tg, k1, k2, fy, c)
+        loss = terms["data"] if warm else problem.total(terms)
+        if not torch.isfinite(loss):
+            raise IdentificationError(
+                f"training diverged at epoch {epoch}: loss is {loss.item()} "
+                f"(terms: {', '.join(f'{k}={v.item():.3g}' for k, v in terms.items())})")
+        opt_net.zero_grad()
+        opt_par.zero_grad()
+        loss.backward()
+        opt_net.step()
+        if not warm:
+            if settings.param_rule == "adam":
+                logp.grad.mul_(free)
+                opt_par.step()
+                _project(logp, ref, problem.f_cap)
+            else:
+                with torch.no_grad():
+                    k_now = torch.stack(_params_from_log(logp, ref))
+                    k_in = ref if settings.init == "design" else torch.as_tensor(
+                        np.stack([window.design.k1, window.design.k2, window.design.fy,
+                                  window.design.c]), dtype=torch.float64, device=device)
+                    new = _paper_rule_step(problem, _detach(pairs), _detach_dict(tg), k_now,
+                                           k_in, settings.paper_lr2, free)
+                    logp.copy_(torch.log(new / ref))
+        loss_val = float(loss.item())
+        with torch.no_grad():
+            k_cur = torch.stack(_params_from_log(logp, ref))
+        history["loss"].append(loss_val)
+        for k, v in terms.items():
+            history[k].append(float(v.item()))
+        k_np = k_cur.cpu().numpy()
+        history["params"].append(k_np.tolist())
+        if callback is not None:
+            callback(Progress(epoch=epoch, max_epochs=settings.max_epochs + settings.warmup_epochs,
+                              loss=loss_val, terms={k: float(v.item()) for k, v in terms.items()},
+                              k1=k_np[0], k2=k_np[1], fy=k_np[2], c=k_np[3],
+                              elapsed_s=time.perf_counter() - t_start))
+        if warm:
+            continue
+        recent.append(k_cur)
+        if len(recent) > settings.patience:
+            recent.pop(0)
+            moved = float((torch.abs(recent[-1] / recent[0] - 1.0) * free).max())
+            if epoch - settings.warmup_epochs >= settings.min_epochs and moved < settings.tol:
+                break
+
+    # reproduce responses over the whole window and evaluate the damage indices
+    with torch.no_grad():
+        net.eval()
+        k1, k2, fy, c = _params_from_log(logp, ref)
+        idx = np.arange(window.t.size - 1)
+        pairs, _ = problem.outputs(net, c, problem.tau_all[idx], idx)
+        take = lambda q: torch.cat([getattr(pairs, q + "0"), getattr(pairs, q + "1")[-1:]]).cpu().numpy()
+        rep = {q: take(q) for q in ("a", "v", "x", "f")}
+        params = SpringParameters(*(t.cpu().numpy() for t in (k1, k2, fy, c)))
+    b = angle_matrix(geometry.section_heights_m)
+    theta = rep["x"] @ b.T
+    yielded = np.array([
+        yielded0[i] and yield_test(theta[:, i], rep["f"][:, i], params.k1[i], params.k2[i],
+                                   params.fy[i], settings.yield_score)[0]
+        for i in range(n)])
+    if np.any(~yielded):  # never yielded: fy only bounded below by the largest moment
+        fy_arr = params.fy.copy()
+        fy_arr[~yielded] = np.maximum(fy_arr[~yielded], np.abs(rep["f"][:, ~yielded]).max(axis=0))
+        params = SpringParameters(params.k1, params.k2, fy_arr, params.c)
+    sections = build_sections(geometry, params, theta, yielded,
+                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1)
+    wall = time.perf_counter() - t_start
+    result = IdentificationResult(
+        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
+        overall_state=overall_state(sections), window_start_s=float(window.t[0]),
+        window_duration_s=window.duration_s, epochs=epoch, final_loss=loss_val,
+        wall_time_s=wall, device=str(device), success=True,
+        message=f"trained {epoch} epochs on {n_pairs} pairs",
+        settings=asdict(settings),
+        history={k: v for k, v in history.items() if k != "params"})
+    reproduced = Reproduced(t=window.t.copy(), a=rep["a"], v=rep["v"], x=rep["x"], theta=theta,
+                            moment=rep["f"])
+    return IdentificationRun(result=result, reproduced=reproduced, initial=init,
+                             history=history)
+
+
+def _detach(p: PairTensors) -> PairTensors:
+    return PairTensors(*(t.detach() for t in (p.a0, p.v0, p.x0, p.f0, p.a1, p.v1, p.x1, p.f1)))
+
+
+def _detach_dict(d: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+    return {k: v.detach() for k, v in d.items()}
