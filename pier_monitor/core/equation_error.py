@@ -90,14 +90,18 @@ def _hyst_residual(f: np.ndarray, th: np.ndarray, k1: float, k2: float, fy: floa
     return f[1:] - np.clip(trial, k2 * th[1:] - s, k2 * th[1:] + s)
 
 
-def _robust_increments(df: np.ndarray, cols: np.ndarray, n_iter: int = 10) -> np.ndarray:
+def _robust_increments(df: np.ndarray, cols: np.ndarray, n_iter: int = 10,
+                       rows: np.ndarray | None = None) -> np.ndarray:
     """Robust least squares of ``df ≈ cols @ p`` (``cols`` of 1 or 2 columns).
 
     The pairs that yield follow another slope, possibly on many pairs, so plain trimming
     from the all-pairs fit can lock onto the wrong branch.  Least-trimmed-squares
     concentration steps (keep the half with the smallest residuals) from robust starts
     find the elastic branch; then pairs beyond 4 robust sigmas are trimmed and refitted.
+    ``rows`` restricts the fit to a subset of pairs (e.g. the unloading ones).
     """
+    if rows is not None and np.count_nonzero(rows) >= 4 * cols.shape[1]:
+        df, cols = df[rows], cols[rows]
     n = df.size
     half = max(cols.shape[1] + 1, n // 2)
     big = np.abs(cols[:, 0]) > np.median(np.abs(cols[:, 0]))
@@ -133,6 +137,34 @@ def _robust_increments(df: np.ndarray, cols: np.ndarray, n_iter: int = 10) -> np
         keep = new_keep
         p = np.linalg.lstsq(cols[keep], df[keep], rcond=None)[0]
     return p
+
+
+def _levels_fit(theta: np.ndarray, y: np.ndarray, theta_dot: np.ndarray | None,
+                elastic: np.ndarray) -> np.ndarray | None:
+    """``k1`` (and ``c``) from the levels of the elastic stretches rather than increments.
+
+    Within a stretch of consecutive elastic pairs the spring follows one elastic line,
+    ``f = k1 θ + b`` (``b`` the stretch's offset), so ``y = k1 θ [+ c θ̇] + b_s`` holds sample
+    by sample (``y`` = measured moment, or ``g`` when ``c`` is fitted too).  Regressing levels
+    instead of increments keeps the sensor noise from biasing ``k1`` (errors in variables
+    grow as the increments shrink, as on lightly loaded springs).  Returns ``[k1]`` or
+    ``[k1, c]``, or None when there are too few elastic stretches.
+    """
+    seg = np.concatenate(([0], np.cumsum(~elastic)))  # samples i, i+1 share a stretch if elastic
+    counts = np.bincount(seg)
+    use = counts[seg] >= 5
+    if np.count_nonzero(use) < 20:
+        return None
+    s_id = seg[use]
+    cols = [theta[use]] + ([theta_dot[use]] if theta_dot is not None else [])
+    yy = y[use]
+
+    def demean(arr: np.ndarray) -> np.ndarray:
+        means = np.bincount(s_id, weights=arr) / np.maximum(np.bincount(s_id), 1)
+        return arr - means[s_id]
+
+    mat = np.column_stack([demean(c_) for c_ in cols])
+    return np.linalg.lstsq(mat, demean(yy), rcond=None)[0]
 
 
 def yield_test(theta: np.ndarray, f: np.ndarray, k1: float, k2: float, fy: float,
@@ -172,13 +204,16 @@ def _fit_one(theta: np.ndarray, g: np.ndarray, theta_dot: np.ndarray, f_meas: np
         # c from f + c θ̇ = g (linear), k1 from elastic increments of the measured moments
         c = float(np.clip(np.dot(theta_dot, g - f_meas) / max(np.dot(theta_dot, theta_dot),
                                                                 1e-300), 0.0, None))
-        k1 = float(_robust_increments(np.diff(f_meas), np.diff(theta)[:, None])[0])
+        unloading = f_meas[:-1] * np.diff(f_meas) < 0  # moving back towards zero: elastic
+        k1 = float(_robust_increments(np.diff(f_meas), np.diff(theta)[:, None],
+                                      rows=unloading)[0])
 
         def moments(c_: float) -> np.ndarray:
             return f_meas
     else:
         cols = np.column_stack([np.diff(theta), np.diff(theta_dot)])
-        k1, c = (float(v) for v in _robust_increments(np.diff(g), cols))
+        unloading = g[:-1] * np.diff(g) < 0
+        k1, c = (float(v) for v in _robust_increments(np.diff(g), cols, rows=unloading))
         c = max(c, 0.0)
 
         def moments(c_: float) -> np.ndarray:
@@ -218,20 +253,27 @@ def _fit_one(theta: np.ndarray, g: np.ndarray, theta_dot: np.ndarray, f_meas: np
     fy = fmax * float(sol.x[2])
     if free_c:
         c = c_ref * float(sol.x[3])
+    # k1 (and c) once more from the levels of the elastic stretches, then k2, fy with them held
+    s_ = fy * (1 - k2 / k1)
     f = moments(c)
+    trial = f[:-1] + k1 * np.diff(theta)
+    elastic = (trial < k2 * theta[1:] + s_) & (trial > k2 * theta[1:] - s_)
+    lv = _levels_fit(theta, f, None, elastic)
+    if lv is not None and lv[0] > 0:
+        k1 = float(lv[0])
+        fmax = float(np.max(np.abs(f)))
+        sol = optimize.least_squares(
+            lambda p: _hyst_residual(f, theta, k1, k1 * p[0], fmax * p[1]),
+            np.clip([k2 / k1, fy / fmax], [0.0, 1e-3], [0.5, 2.0]),
+            bounds=([0.0, 1e-3], [0.5, 2.0]), x_scale=[0.1, 0.1], method="trf")
+        k2, fy = k1 * float(sol.x[0]), fmax * float(sol.x[1])
     yielded, cost_bilinear, cost_elastic, n_yield = yield_test(theta, f, k1, k2, fy, yield_score)
     if not yielded:
-        # elastic spring: re-fit k1 (and c) without the yield branch, fy only bounded below
-        def res_el(p: np.ndarray) -> np.ndarray:
-            cc = c_ref * p[1] if free_c else c
-            return _hyst_residual(moments(cc), theta, k1 * p[0], 0.0, 1e6 * fmax + 1.0)
-
-        sol = optimize.least_squares(res_el, [1.0] + ([c / c_ref] if free_c else []),
-                                     method="trf", x_scale="jac")
-        k1 = k1 * float(sol.x[0])
-        if free_c:
-            c = c_ref * float(sol.x[1])
-        fy = float(np.max(np.abs(moments(c))))
+        # elastic spring: one elastic line over the window; fy only bounded below
+        lv = _levels_fit(theta, f, None, np.ones(theta.size - 1, dtype=bool))
+        if lv is not None and lv[0] > 0:
+            k1 = float(lv[0])
+        fy = float(np.max(np.abs(f)))
         k2 = min(k2_0, 0.5 * k1) if k2_0 > 0 else 0.1 * k1
         n_yield = 0
     return SpringFit(k1=k1, k2=k2, fy=fy, c=c, yielded=yielded, cost_bilinear=cost_bilinear,
