@@ -1,0 +1,228 @@
+"""Ingest: raw sensor streams to mainshock windows, against the synthetic ground truth."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from pier_monitor.core.config import PierConfig
+from pier_monitor.core.ingest import IngestError, StreamIngest, ingest_recording
+from pier_monitor.core.recording import Recording, SensorRecord
+from pier_monitor.core.resources import find_config_file
+from pier_monitor.core.config import load_config
+from pier_monitor.core.synthetic import generate_recording
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    config = load_config(find_config_file("edefense_like.yaml"))
+    return generate_recording(config, seed=0)
+
+
+@pytest.fixture(scope="module")
+def ingested(synthetic):
+    return ingest_recording(synthetic.recording)
+
+
+def with_sensor(rec: Recording, sid: str, **changes) -> Recording:
+    old = rec.sensors[sid]
+    fields = {"sensor_id": sid, "time_ns": old.time_ns, "data": old.data, "rate_hz": old.rate_hz,
+              "sample_index": old.sample_index}
+    fields.update(changes)
+    sensors = dict(rec.sensors)
+    sensors[sid] = SensorRecord(**fields)
+    return Recording(rec.config, sensors, source="modified")
+
+
+def truth_on_window(window, run, key):
+    """True response at the window's samples, through the same anti-aliasing (200 → 100 Hz)."""
+    arr = getattr(run.response, key)
+    dec = signal.decimate(arr, 2, ftype="fir", axis=0, zero_phase=True)
+    k0 = int(round((window.start_time_ns - run.start_ns) / 1e9 * 100))
+    return dec[k0:k0 + window.t.size]
+
+
+def test_windows_match_the_ground_truth(synthetic, ingested):
+    windows, report = ingested
+    runs = synthetic.truth.runs
+    assert len(windows) == len(runs) == 2
+    for w, run in zip(windows, runs):
+        a_true = truth_on_window(w, run, "a")
+        rel = lambda e, t: np.sqrt(np.mean(e ** 2, axis=0)) / np.sqrt(np.mean(t ** 2, axis=0))
+        assert np.all(rel(w.a - a_true, a_true) < 0.01)
+        v_true = truth_on_window(w, run, "v")
+        v_err = w.v - v_true
+        assert np.all(rel(v_err, v_true) < 0.01)
+        assert np.all(np.sqrt(np.mean(v_err ** 2, axis=0)) < 0.5e-3)
+        # the wires read the drift left by earlier runs; the ingest zeroes each event's start
+        x_true = truth_on_window(w, run, "x")
+        x_true = x_true - (x_true[:1] - w.x[:1])
+        wire_noise = 1e-4
+        assert np.all(np.sqrt(np.mean((w.x - x_true) ** 2, axis=0)) < wire_noise)
+        ag_true = truth_on_window(w, run, "ag")
+        assert rel(w.ag - ag_true, ag_true) < 0.01
+        # at least 95 % of the run's Arias intensity is inside the window
+        ag = run.response.ag
+        t = np.arange(ag.size) / 200.0
+        ws = (w.start_time_ns - run.start_ns) / 1e9
+        inside = (t >= ws) & (t < ws + w.duration_s)
+        assert np.sum(ag[inside] ** 2) / np.sum(ag ** 2) >= 0.95
+        assert w.sigma["v"].shape == (4,) and np.all(w.sigma["v"] > 0)
+    # the velocity meter at the top agrees with the fused velocity
+    for checks in report.checks["velocity_meter"].values():
+        assert checks["level4"]["rms_difference_mps"] < 0.01 * checks["level4"]["rms_velocity_mps"]
+
+
+def test_principal_direction_is_estimated_within_one_degree(synthetic):
+    config = dataclasses.replace(synthetic.recording.config, principal_direction_deg=None)
+    rec = Recording(config, synthetic.recording.sensors)
+    windows, report = ingest_recording(rec)
+    assert len(windows) == 2
+    for w in windows:
+        est = w.report["principal_direction_deg"]
+        diff = (est - synthetic.truth.principal_direction_deg + 90.0) % 180.0 - 90.0
+        assert abs(diff) < 1.0
+    assert "principal_direction" in report.codes("event1")
+
+
+def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
+    rec = synthetic.recording
+    stream = StreamIngest(rec.config)
+    got = []
+    n = next(iter(rec.sensors.values())).n_samples
+    for b0 in range(0, n, 40):
+        for sid, r in rec.sensors.items():
+            got += stream.push(sid, r.time_ns[b0:b0 + 40], r.data[b0:b0 + 40],
+                               r.sample_index[b0:b0 + 40])
+    got += stream.flush()
+    assert stream.received == sum(r.n_samples * 1 for r in rec.sensors.values())
+    whole, _ = ingested
+    assert [w.event_id for w in got] == [w.event_id for w in whole]
+    for a, b in zip(whole, got):
+        assert a.start_time_ns == b.start_time_ns
+        for key in ("ag", "a", "v", "x"):
+            np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+
+
+def test_no_event_is_a_normal_result(synthetic):
+    rec = synthetic.recording
+    quiet_end = rec.start_ns + int(15e9)  # the first 15 s hold only ambient motion
+    sensors = {}
+    for sid, r in rec.sensors.items():
+        keep = r.time_ns < quiet_end
+        sensors[sid] = SensorRecord(sid, r.time_ns[keep], r.data[keep], r.rate_hz,
+                                    r.sample_index[keep])
+    windows, report = ingest_recording(Recording(rec.config, sensors))
+    assert windows == []
+    assert "no_event" in report.codes()
+
+
+def _first_window_x(rec):
+    windows, report = ingest_recording(rec)
+    return windows, report
+
+
+def test_nan_samples_and_short_gaps_are_interpolated_and_reported(synthetic, ingested):
+    rec = synthetic.recording
+    sid = "l2_acc_n"
+    data = np.array(rec.sensors[sid].data)
+    data[6000:6004, 0] = np.nan  # 20 ms
+    data[6100, 1] = np.inf
+    windows, report = ingest_recording(with_sensor(rec, sid, data=data))
+    assert "non_finite" in report.codes(sid)
+    assert report.codes(sid).count("gap_interpolated") == 2
+    assert len(windows) == 2
+    # one of eight channels bridged over 20 ms: the level average moves by a few mm/s² there
+    np.testing.assert_allclose(windows[0].a, ingested[0][0].a, atol=1e-2)
+
+
+def test_long_gap_excludes_the_sensor_and_says_when(synthetic):
+    rec = synthetic.recording
+    sid = "l2_acc_n"
+    r = rec.sensors[sid]
+    keep = np.ones(r.n_samples, dtype=bool)
+    keep[6000:6400] = False  # 2 s dropout inside run 1
+    windows, report = ingest_recording(with_sensor(rec, sid, time_ns=r.time_ns[keep],
+                                                   data=r.data[keep],
+                                                   sample_index=r.sample_index[keep]))
+    msgs = [m for c, w, m in report.events if c == "gap_excluded" and w == sid]
+    assert msgs and "400 missing samples (2.00 s)" in msgs[0]
+    assert windows[0].report["channels"]["acceleration.2"] == 6  # 8 channels less its 2
+    assert windows[1].report["channels"]["acceleration.2"] == 8  # run 2 is after the gap
+    assert len(windows) == 2
+
+
+def test_duplicates_out_of_order_and_timestamp_jumps_are_repaired(synthetic, ingested):
+    rec = synthetic.recording
+    sid = "l1_acc_n"
+    r = rec.sensors[sid]
+    order = np.arange(r.n_samples)
+    order[7000], order[7001] = 7001, 7000  # swapped
+    order = np.concatenate([order[:8000], [7999, 7999], order[8000:]])  # duplicated
+    t = np.array(r.time_ns[order])
+    t[9000:9010] += 3_000_000  # the clock jumped by 3 ms for ten samples
+    modified = with_sensor(rec, sid, time_ns=t, data=r.data[order],
+                           sample_index=r.sample_index[order])
+    windows, report = ingest_recording(modified)
+    codes = report.codes(sid)
+    assert {"out_of_order", "duplicate", "timestamp_jump"} <= set(codes)
+    for a, b in zip(windows, ingested[0]):
+        np.testing.assert_array_equal(a.a, b.a)
+
+
+def test_dead_and_saturated_channels_are_excluded(synthetic):
+    rec = synthetic.recording
+    dead = np.array(rec.sensors["l3_acc_n"].data)
+    dead[:, 0] = 12.5
+    sat = np.array(rec.sensors["l3_acc_s"].data)
+    cap = 0.3 * np.abs(sat[:, 1]).max()
+    sat[:, 1] = np.clip(sat[:, 1], -cap, cap)
+    modified = with_sensor(with_sensor(rec, "l3_acc_n", data=dead), "l3_acc_s", data=sat)
+    windows, report = ingest_recording(modified)
+    assert "dead" in report.codes("l3_acc_n.x")
+    assert "saturated" in report.codes("l3_acc_s.y")
+    assert len(windows) == 2
+
+
+def test_accelerometer_in_the_wrong_unit_is_caught(synthetic):
+    rec = synthetic.recording
+    spec = rec.config.sensor("l1_acc_s")
+    assert spec.unit in ("gal", "m/s^2")
+    wrong = "m/s^2" if spec.unit == "gal" else "g"
+    sensors = tuple(dataclasses.replace(s, unit=wrong) if s.sensor_id == "l1_acc_s" else s
+                    for s in rec.config.sensors)
+    config = dataclasses.replace(rec.config, sensors=sensors)
+    windows, report = ingest_recording(Recording(config, rec.sensors))
+    assert "implausible_units" in report.codes("l1_acc_s")
+    assert len(windows) == 2
+
+
+def test_missing_and_unmapped_sensors_are_reported(synthetic):
+    rec = synthetic.recording
+    sensors = {k: v for k, v in rec.sensors.items() if k != "l4_acc_ne"}
+    windows, report = ingest_recording(Recording(rec.config, sensors,
+                                                 unmapped_topics=("/edefense_pier/sensors/x",)))
+    assert "missing_sensor" in report.codes("l4_acc_ne")
+    assert "unmapped_topic" in report.codes("/edefense_pier/sensors/x")
+    assert len(windows) == 2
+
+
+def test_level_without_usable_sensor_is_an_error_naming_it(synthetic):
+    rec = synthetic.recording
+    sensors = {k: v for k, v in rec.sensors.items()
+               if not (rec.config.sensor(k).level == 2 and rec.config.sensor(k).kind == "displacement")}
+    with pytest.raises(IngestError, match="level 2: no usable displacement sensor"):
+        ingest_recording(Recording(rec.config, sensors))
+
+
+def test_rate_contradicting_the_configuration_is_reported(synthetic):
+    rec = synthetic.recording
+    r = rec.sensors["l1_acc_n"]
+    modified = with_sensor(rec, "l1_acc_n", rate_hz=100.0)
+    windows, report = ingest_recording(modified)
+    assert "rate_mismatch" in report.codes("l1_acc_n")
+    assert len(windows) == 2
+    del r
