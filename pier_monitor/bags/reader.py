@@ -64,17 +64,22 @@ def _config_connections(path: Path, connections: list[Any], pier_id: str | None)
     return found
 
 
-def _read_config(path: Path, reader: Any, conns: list[Any]) -> tuple[PierConfig, str]:
+def _read_config(path: Path, reader: Any, conns: list[Any]
+                 ) -> tuple[PierConfig, str, list[tuple[int, PierConfig]]]:
+    """The first configuration message, its topic, and the later ones with their log times."""
     typestore = get_typestore()
     topic = conns[0].topic
+    configs: list[tuple[int, PierConfig]] = []
     for _, log_ns, raw in reader.messages(connections=conns):
         try:
             text = typestore.deserialize_cdr(raw, STRING).data
         except Exception as err:
             raise BagError(f"{path}: {topic}: cannot decode the configuration message at "
                            f"{log_ns} ns: {err}") from err
-        return config_from_yaml(text, source=f"{path.name}:{topic}"), topic
-    raise BagError(f"{path}: no pier configuration in the bag ({topic} has no messages)")
+        configs.append((int(log_ns), config_from_yaml(text, source=f"{path.name}:{topic}")))
+    if not configs:
+        raise BagError(f"{path}: no pier configuration in the bag ({topic} has no messages)")
+    return configs[0][1], topic, configs[1:]
 
 
 def _block_arrays(path: Path, topic: str, spec: SensorSpec, msg: Any,
@@ -143,7 +148,7 @@ def read_bag(path: str | Path, *, pier_id: str | None = None) -> Recording:
         with Reader(path) as reader:
             connections = list(reader.connections)
             config_conns = _config_connections(path, connections, pier_id)
-            config, topic = _read_config(path, reader, config_conns)
+            config, topic, updates = _read_config(path, reader, config_conns)
             namespace = topic[: -len(CONFIG_TOPIC_NAME) - 1]
             by_topic = {f"{namespace}/{s.topic.lstrip('/')}": s for s in config.sensors}
             sensor_conns = []
@@ -190,7 +195,8 @@ def read_bag(path: str | Path, *, pier_id: str | None = None) -> Recording:
             data=np.concatenate([c[2] for c in chunks]),
             rate_hz=rates[spec.sensor_id],
             sample_index=np.concatenate([c[1] for c in chunks]))
-    return Recording(config, sensors, source=str(path), unmapped_topics=tuple(sorted(unmapped)))
+    return Recording(config, sensors, source=str(path), unmapped_topics=tuple(sorted(unmapped)),
+                     config_updates=tuple(updates))
 
 
 def read_bag_config(path: str | Path, *, pier_id: str | None = None) -> PierConfig:

@@ -38,8 +38,8 @@ from pier_monitor.core.recording import NS_PER_S, Recording, SensorRecord
 from .errors import BagError
 from .types import KIND_CODES, SAMPLE_BLOCK, STRING, get_typestore, message_definition
 
-__all__ = ["BagFormat", "BagSummary", "write_bag", "iter_messages", "bag_format", "config_topic",
-           "sensor_topic", "CONFIG_TOPIC_NAME", "DEFAULT_BLOCK_S"]
+__all__ = ["BagFormat", "BagSummary", "write_bag", "write_mcap_messages", "iter_messages",
+           "bag_format", "config_topic", "sensor_topic", "CONFIG_TOPIC_NAME", "DEFAULT_BLOCK_S"]
 
 BagFormat = Literal["rosbag2", "mcap"]
 
@@ -166,6 +166,9 @@ def _messages(recording: Recording, block_s: float) -> tuple[list[tuple[str, str
     msgs: list[tuple[int, int, bytes]] = [
         (min(starts) - _CONFIG_LEAD_NS, 0,
          bytes(typestore.serialize_cdr(types[STRING](data=config.to_yaml()), STRING)))]
+    # later configurations (e.g. deck mass added between runs), at the time they hold from
+    msgs += [(t_ns, 0, bytes(typestore.serialize_cdr(types[STRING](data=c.to_yaml()), STRING)))
+             for t_ns, c in recording.config_updates]
     for spec, rec in sensors:
         topic = sensor_topic(config.pier_id, spec)
         where = f"sensor {spec.sensor_id} ({topic})"
@@ -283,6 +286,44 @@ def write_bag(recording: Recording, path: str | Path, *, fmt: BagFormat | None =
     return BagSummary(path=path, fmt=fmt, n_messages=len(msgs),
                       topics=tuple(topic for topic, _, _ in conns),
                       size_bytes=_size_on_disk(path), start_ns=msgs[0][0], end_ns=msgs[-1][0])
+
+
+def write_mcap_messages(path: str | Path, connections: list[tuple[str, str, bool]],
+                        messages: list[tuple[int, int, bytes]], *, compress: bool = True) -> None:
+    """Write serialized messages to a plain ``.mcap`` file (``ros2`` profile, CDR).
+
+    The same writer as :func:`write_bag` uses, for messages other than a recording's
+    (e.g. the results of an identification).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to create; it must not exist.
+    connections : list of (topic, type name, latched)
+        One channel each; latched topics are offered transient local.
+    messages : list of (log time ns, connection index, CDR bytes)
+        In log-time order.
+    compress : bool
+        zstd-compress the chunks.
+
+    Raises
+    ------
+    BagError
+        Naming the path: it exists, a message names no connection, or writing fails.  A
+        partly written file is removed.
+    """
+    path = Path(path)
+    if path.exists() or path.is_symlink():
+        raise BagError(f"{path}: exists already, not overwriting")
+    bad = [conn for _, conn, _ in messages if not 0 <= conn < len(connections)]
+    if bad:
+        raise BagError(f"{path}: message for connection {bad[0]}, but there are "
+                       f"{len(connections)} connections")
+    try:
+        _write_mcap(path, connections, messages, compress)
+    except Exception as err:  # mcap/OS errors: report them with the path
+        _remove(path)
+        raise BagError(f"{path}: cannot write mcap: {type(err).__name__}: {err}") from err
 
 
 def _remove(path: Path) -> None:

@@ -441,7 +441,8 @@ def _check_units(cleaned: list[CleanSensor], report: IngestReport) -> None:
 def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int, rate: float,
                       w0: int, w1: int, direction: float, settings: IngestSettings,
                       report: IngestReport, event_id: str) -> MeasuredWindow:
-    config = recording.config
+    # geometry and design in force for this event (e.g. deck mass added before a run)
+    config = recording.config_at(t0 + int(round(w0 * NS_PER_S / rate)))
     n_lv = config.n_levels
     ctx = int(round(settings.context_s * rate))
     n_all = cleaned[0].values.shape[0] if cleaned else 0
@@ -572,8 +573,17 @@ class StreamIngest:
         self._poll_ns = int(poll_s * NS_PER_S)
         self._last_poll_ns: int | None = None
         self._done_until_ns = -1
+        self._updates: list[tuple[int, PierConfig]] = []
         self.report = IngestReport()
         self.received = 0
+
+    def update_config(self, time_ns: int, config: PierConfig) -> None:
+        """A new configuration holds from ``time_ns`` (e.g. deck mass added before a run).
+
+        Only geometry and design values may change; the sensor map stays.
+        """
+        self._updates.append((int(time_ns), config))
+        Recording(self.config, {}, config_updates=tuple(self._updates))  # validates
 
     def push(self, sensor_id: str, time_ns: np.ndarray, data: np.ndarray,
              sample_index: np.ndarray | None = None) -> list[MeasuredWindow]:
@@ -623,7 +633,8 @@ class StreamIngest:
             sensors[sid] = SensorRecord(sid, np.concatenate([b[0] for b in blocks]),
                                         np.concatenate([b[1] for b in blocks]), self.rate,
                                         np.concatenate([b[2] for b in blocks]))
-        return Recording(self.config, sensors, source="stream")
+        return Recording(self.config, sensors, source="stream",
+                         config_updates=tuple(self._updates))
 
     def _poll(self, final: bool = False) -> list[MeasuredWindow]:
         s = self.settings

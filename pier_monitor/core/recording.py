@@ -130,12 +130,17 @@ class Recording:
         Where the recording came from (bag path, generator settings).
     unmapped_topics : tuple of str
         Topics of sample blocks found next to the recording whose sensor is not in the map.
+    config_updates : tuple of (int, PierConfig)
+        Later configurations with the time (ns) from which each holds, in time order, e.g.
+        deck mass added between two shaking runs.  They must keep the sensor map and the
+        number of levels; :meth:`config_at` picks the one in force.
     """
 
     config: PierConfig
     sensors: Mapping[str, SensorRecord]
     source: str = ""
     unmapped_topics: tuple[str, ...] = field(default=())
+    config_updates: tuple[tuple[int, PierConfig], ...] = field(default=())
 
     def __post_init__(self) -> None:
         known = {s.sensor_id: s for s in self.config.sensors}
@@ -153,6 +158,22 @@ class Recording:
                    if s.sensor_id in self.sensors}
         object.__setattr__(self, "sensors", ordered)
         object.__setattr__(self, "unmapped_topics", tuple(self.unmapped_topics))
+        updates = tuple(sorted(((int(t), c) for t, c in self.config_updates), key=lambda u: u[0]))
+        for t, c in updates:
+            if c.sensors != self.config.sensors or c.n_levels != self.config.n_levels \
+                    or c.pier_id != self.config.pier_id:
+                raise InputDataError(
+                    f"configuration update at {t} ns for pier {c.pier_id!r} changes the pier, "
+                    "its levels or its sensor map; only geometry and design values may change")
+        object.__setattr__(self, "config_updates", updates)
+
+    def config_at(self, t_ns: int) -> PierConfig:
+        """The configuration in force at ``t_ns``: the latest update at or before it."""
+        current = self.config
+        for t, c in self.config_updates:
+            if t <= t_ns:
+                current = c
+        return current
 
     @property
     def missing_sensors(self) -> tuple[str, ...]:
@@ -187,4 +208,7 @@ class Recording:
     def equals(self, other: "Recording") -> bool:
         """Equal configuration and exactly equal samples of the same sensors."""
         return (self.config == other.config and list(self.sensors) == list(other.sensors)
-                and all(self.sensors[k].equals(other.sensors[k]) for k in self.sensors))
+                and all(self.sensors[k].equals(other.sensors[k]) for k in self.sensors)
+                and len(self.config_updates) == len(other.config_updates)
+                and all(ta == tb and ca == cb for (ta, ca), (tb, cb)
+                        in zip(self.config_updates, other.config_updates)))

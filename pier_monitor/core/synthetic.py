@@ -35,6 +35,8 @@ bit-identical recordings.
 
 from __future__ import annotations
 
+import dataclasses
+
 import json
 import re
 from dataclasses import asdict, dataclass
@@ -651,7 +653,11 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         principal_direction_deg=float(principal_direction_deg), sample_rate_hz=rate,
         start_ns=int(times[0]), end_ns=end_ns, runs=tuple(run_truths),
         noise_rms={s.sensor_id: s.noise_rms for s in config.sensors}, scenario=scenario)
-    return SyntheticRecording(Recording(config, sensors, source=source), truth)
+    # the operators record added deck mass as a configuration update before the run
+    updates = tuple((int(times[bounds[i]]), dataclasses.replace(config, geometry=piers[i][0]))
+                    for i in range(1, len(piers)) if piers[i][0] != config.geometry)
+    return SyntheticRecording(Recording(config, sensors, source=source, config_updates=updates),
+                              truth)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -55,7 +55,11 @@ def test_written_bag_reads_back_to_the_recording(written, fmt):
     assert got.missing_sensors == () and got.unmapped_topics == ()
     assert read_bag_config(info.bag.path) == written["expected"].config
     n_sensors = len(written["expected"].config.sensors)
-    assert info.bag.n_messages == 1 + n_sensors * 1501  # 30002 samples in 20-sample blocks
+    # the configuration, its update before run 2 (deck mass added), 30002 samples per sensor
+    # in 20-sample blocks
+    assert len(got.config_updates) == 1
+    assert got.config_updates[0][1].geometry.masses_kg[-1] > got.config.geometry.masses_kg[-1]
+    assert info.bag.n_messages == 2 + n_sensors * 1501
     assert info.bag.topics[0] == "/edefense_pier/pier_configuration"
 
 
@@ -120,8 +124,9 @@ def test_mcap_tools_decode_the_plain_mcap(written):
         assert {s.encoding for s in summary.schemas.values()} == {"ros2msg"}
         configs = [m for _, _, _, m in
                    reader.iter_decoded_messages(topics=[config_topic(config.pier_id)])]
-        assert len(configs) == 1
+        assert len(configs) == 2  # the configuration and its update before run 2
         assert config_from_yaml(configs[0].data) == config
+        assert config_from_yaml(configs[1].data) == expected.config_updates[0][1]
         blocks = [(msg, m.log_time) for _, _, m, msg in
                   reader.iter_decoded_messages(topics=[sensor_topic(config.pier_id, spec)])]
     assert len(blocks) == 1501

@@ -50,6 +50,7 @@ def test_windows_match_the_ground_truth(synthetic, ingested):
     runs = synthetic.truth.runs
     assert len(windows) == len(runs) == 2
     for w, run in zip(windows, runs):
+        assert w.geometry == run.geometry  # run 2: deck mass from the configuration update
         a_true = truth_on_window(w, run, "a")
         rel = lambda e, t: np.sqrt(np.mean(e ** 2, axis=0)) / np.sqrt(np.mean(t ** 2, axis=0))
         assert np.all(rel(w.a - a_true, a_true) < 0.01)
@@ -91,6 +92,8 @@ def test_principal_direction_is_estimated_within_one_degree(synthetic):
 def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
     rec = synthetic.recording
     stream = StreamIngest(rec.config)
+    for t_ns, config in rec.config_updates:  # on ROS: the latched configuration topic
+        stream.update_config(t_ns, config)
     got = []
     n = next(iter(rec.sensors.values())).n_samples
     for b0 in range(0, n, 40):
@@ -103,6 +106,7 @@ def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
     assert [w.event_id for w in got] == [w.event_id for w in whole]
     for a, b in zip(whole, got):
         assert a.start_time_ns == b.start_time_ns
+        assert a.geometry == b.geometry and a.design == b.design
         for key in ("ag", "a", "v", "x"):
             np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
 
