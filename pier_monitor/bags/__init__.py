@@ -12,7 +12,7 @@ from .synthetic_bag import (SyntheticBagInfo, default_edefense_config, truth_pat
                             write_synthetic_edefense_bag)
 from .types import KIND_CODES, SAMPLE_BLOCK, STRING, find_msg_dir, get_typestore
 from .writer import (BagSummary, bag_format, config_topic, iter_messages, sensor_topic,
-                     write_bag)
+                     write_bag, write_mcap_messages)
 
 __all__ = [
     "BagError",
@@ -32,5 +32,6 @@ __all__ = [
     "sensor_topic",
     "truth_paths",
     "write_bag",
+    "write_mcap_messages",
     "write_synthetic_edefense_bag",
 ]

@@ -9,7 +9,7 @@ reported as intact with the identifiable flags false — never as numbers that l
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from enum import IntEnum
 from pathlib import Path
 from typing import Any
@@ -26,6 +26,7 @@ __all__ = [
     "SectionResult",
     "IdentificationResult",
     "build_sections",
+    "k1_change_pct",
 ]
 
 SUSPICIOUS_DF = 1.2
@@ -60,6 +61,24 @@ def ductility_factors(theta: np.ndarray, params: SpringParameters) -> np.ndarray
     return np.max(np.abs(theta), axis=0) / params.yield_angles
 
 
+def k1_change_pct(k1: np.ndarray, baseline_k1: np.ndarray) -> np.ndarray:
+    """Change of ``k1`` against a baseline, %: ``100 (k1 / k1_baseline - 1)``, shape (N,).
+
+    Raises
+    ------
+    InputDataError
+        If the shapes differ or a baseline value is not finite and positive.
+    """
+    k1 = np.asarray(k1, dtype=float)
+    base = np.asarray(baseline_k1, dtype=float)
+    if base.shape != k1.shape:
+        raise InputDataError(f"baseline k1: expected shape {k1.shape}, got {base.shape}")
+    if not np.all(np.isfinite(base) & (base > 0)):
+        raise InputDataError(f"baseline k1: expected finite positive values in N*m/rad, got "
+                             f"{base.tolist()}")
+    return 100.0 * (k1 / base - 1.0)
+
+
 @dataclass(frozen=True)
 class SectionResult:
     """Identified state of one section (spring ``index`` + 1 and its damper), SI units."""
@@ -88,7 +107,13 @@ class SectionResult:
 
 @dataclass(frozen=True)
 class IdentificationResult:
-    """Result of one identification (one event window)."""
+    """Result of one identification (one event window).
+
+    ``window_start_s`` is the window's first sample on the source's clock (s);
+    ``window_start_ns`` the same instant in ns since the Unix epoch (0 when not known).
+    ``k1_baseline`` says what the sections' ``k1_change_pct`` is relative to ("" when not
+    stated), ``software_version`` the pier_monitor version that wrote the result.
+    """
 
     pier_id: str
     event_id: str
@@ -104,6 +129,9 @@ class IdentificationResult:
     message: str = ""
     settings: dict[str, Any] = field(default_factory=dict)
     history: dict[str, list[float]] = field(default_factory=dict)
+    window_start_ns: int = 0
+    k1_baseline: str = ""
+    software_version: str = ""
 
     @property
     def params(self) -> SpringParameters:
@@ -115,6 +143,15 @@ class IdentificationResult:
     def ductility_factors(self) -> np.ndarray:
         """DF per section, shape (N,)."""
         return np.array([s.ductility_factor for s in self.sections])
+
+    def with_k1_baseline(self, baseline_k1: np.ndarray, label: str) -> "IdentificationResult":
+        """A copy whose ``k1_change_pct`` is relative to ``baseline_k1`` (N,), N·m/rad.
+
+        ``label`` names the baseline (e.g. ``"design values"``, ``"event run1"``).
+        """
+        change = k1_change_pct(self.params.k1, baseline_k1)
+        sections = tuple(replace(s, k1_change_pct=float(d)) for s, d in zip(self.sections, change))
+        return replace(self, sections=sections, k1_baseline=label)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain form for JSON."""
@@ -150,19 +187,20 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
     z = geometry.level_heights_m
     max_angle = np.max(np.abs(theta), axis=0)
     df = max_angle / params.yield_angles
+    # a spring that never yielded has θy >= max|θ|: its DF is at most 1, whatever fy bound the
+    # fit could give (a poorly converged k1 would otherwise turn the bound into a large DF)
+    df = np.where(np.asarray(yielded, dtype=bool), df, np.minimum(df, 1.0))
+    change = None if baseline_k1 is None else k1_change_pct(params.k1, baseline_k1)
     out = []
     for i in range(geometry.n_levels):
         y = bool(yielded[i])
-        change = None
-        if baseline_k1 is not None:
-            change = float(100.0 * (params.k1[i] / baseline_k1[i] - 1.0))
         out.append(SectionResult(
             index=i, z_bottom_m=float(z[i]), z_top_m=float(z[i + 1]), k1=float(params.k1[i]),
             k2=float(params.k2[i]), fy=float(params.fy[i]), c=float(params.c[i]),
             yield_angle_rad=float(params.yield_angles[i]), max_angle_rad=float(max_angle[i]),
             ductility_factor=float(df[i]),
             state=classify_ductility(df[i]).name.lower(), yielded=y, k2_identifiable=y,
-            fy_identifiable=y, k1_change_pct=change))
+            fy_identifiable=y, k1_change_pct=None if change is None else float(change[i])))
     return tuple(out)
 
 

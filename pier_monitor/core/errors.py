@@ -15,6 +15,7 @@ __all__ = [
     "SolverError",
     "BagError",
     "IdentificationError",
+    "ReportError",
 ]
 
 
@@ -47,3 +48,10 @@ class BagError(PierMonitorError):
 
 class IdentificationError(PierMonitorError):
     """The identification (PINN training) failed, e.g. a NaN loss."""
+
+
+class ReportError(PierMonitorError):
+    """Results, figures or a comparison cannot be written or read.
+
+    The message names the file or directory, or says which results do not match.
+    """

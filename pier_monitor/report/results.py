@@ -1,0 +1,335 @@
+"""Results of one identification on disk: JSON, a damage-state mcap and the figures.
+
+:func:`write_results` writes, into one directory:
+
+* ``result.json`` — :meth:`IdentificationResult.to_dict` (parameters, DF and state per
+  section, settings, loss history) with the software version, the absolute window start
+  and what ``k1_change_pct`` is relative to; :meth:`IdentificationResult.load_json` reads
+  it back exactly;
+* ``damage_state.mcap`` — one ``pier_monitor_msgs/msg/PierDamageState`` on
+  ``/<pier_id>/damage_state`` (``ros2`` profile, CDR, offered latched), what the identifier
+  node publishes, readable by the standard mcap tools and ``mcap-ros2-support``;
+* ``profile.png``, ``hysteresis.png``, ``responses.png``, ``training.png`` (see
+  :mod:`~pier_monitor.report.figures`).
+
+:func:`damage_state_fields` is the one mapping from a result to the message's fields.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from pier_monitor import __version__
+from pier_monitor.core.damage import DamageState, IdentificationResult
+from pier_monitor.core.errors import BagError, ReportError
+
+from ._common import atomic_write_text, check_same_pier, ensure_dir
+from .figures import (RunLike, check_window_matches, plot_hysteresis, plot_profile,
+                      plot_responses, plot_training)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pier_monitor.core.window import MeasuredWindow
+
+__all__ = [
+    "DAMAGE_STATE_TYPE",
+    "RESULT_JSON",
+    "ResultsPaths",
+    "damage_state_fields",
+    "damage_state_message",
+    "damage_state_topic",
+    "load_result",
+    "prepare_result",
+    "write_damage_state_mcap",
+    "write_results",
+]
+
+#: Message type of the damage state.
+DAMAGE_STATE_TYPE = "pier_monitor_msgs/msg/PierDamageState"
+_SECTION_TYPE = "pier_monitor_msgs/msg/SectionState"
+#: File names inside a results directory.
+RESULT_JSON = "result.json"
+DAMAGE_STATE_MCAP = "damage_state.mcap"
+_FIGURES = {"profile_png": "profile.png", "hysteresis_png": "hysteresis.png",
+            "responses_png": "responses.png", "training_png": "training.png"}
+_NS_PER_S = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class ResultsPaths:
+    """The files :func:`write_results` wrote (all inside ``out_dir``)."""
+
+    out_dir: Path
+    result_json: Path
+    damage_state_mcap: Path
+    profile_png: Path
+    hysteresis_png: Path
+    responses_png: Path
+    training_png: Path
+
+    @property
+    def figures(self) -> tuple[Path, ...]:
+        """The four PNG figures."""
+        return (self.profile_png, self.hysteresis_png, self.responses_png, self.training_png)
+
+
+def damage_state_topic(pier_id: str) -> str:
+    """Absolute topic of a pier's damage state: ``/<pier_id>/damage_state``."""
+    return f"/{pier_id}/damage_state"
+
+
+def _time(t_ns: int) -> dict[str, int]:
+    sec, nanosec = divmod(int(t_ns), _NS_PER_S)
+    if not -2 ** 31 <= sec < 2 ** 31:
+        raise ReportError(f"time {t_ns} ns does not fit a builtin_interfaces/Time")
+    return {"sec": sec, "nanosec": nanosec}
+
+
+def _window_start_ns(result: IdentificationResult) -> int:
+    """Absolute window start, ns; the source's clock (``window_start_s``) where unknown."""
+    if result.window_start_ns:
+        return int(result.window_start_ns)
+    return int(round(result.window_start_s * _NS_PER_S))
+
+
+def damage_state_fields(result: IdentificationResult, *, stamp_ns: int | None = None
+                        ) -> dict[str, Any]:
+    """The fields of a ``PierDamageState`` message for a result, as plain Python values.
+
+    Nested messages are dicts (``header``, ``window_start``, each of ``sections``), times
+    are ``{"sec", "nanosec"}``, states are the ``SectionState.STATE_*`` codes, and a
+    ``k1_change_pct`` of ``None`` (no baseline) is NaN.  Both the results mcap and the
+    identifier node build their messages from this mapping.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        The identification.
+    stamp_ns : int, optional
+        ``header.stamp``, ns since the Unix epoch; default the window start (reproducible
+        for offline runs; a live node passes its clock).
+
+    Returns
+    -------
+    dict
+        Keys are exactly the fields of ``PierDamageState.msg``.
+    """
+    start_ns = _window_start_ns(result)
+    sections = []
+    for s in result.sections:
+        sections.append({
+            "index": int(s.index),
+            "z_bottom_m": float(s.z_bottom_m),
+            "z_top_m": float(s.z_top_m),
+            "k1": float(s.k1),
+            "k2": float(s.k2),
+            "fy": float(s.fy),
+            "c": float(s.c),
+            "yield_angle_rad": float(s.yield_angle_rad),
+            "max_angle_rad": float(s.max_angle_rad),
+            "ductility_factor": float(s.ductility_factor),
+            "k1_change_pct": float("nan") if s.k1_change_pct is None else float(s.k1_change_pct),
+            "k2_identifiable": bool(s.k2_identifiable),
+            "fy_identifiable": bool(s.fy_identifiable),
+            "state": int(s.damage_state),
+        })
+    return {
+        "header": {"stamp": _time(start_ns if stamp_ns is None else stamp_ns),
+                   "frame_id": result.pier_id},
+        "pier_id": result.pier_id,
+        "event_id": result.event_id,
+        "window_start": _time(start_ns),
+        "window_duration_s": float(result.window_duration_s),
+        "sections": sections,
+        "overall_state": int(DamageState[result.overall_state.upper()]),
+        "epochs": int(result.epochs),
+        "final_loss": float(result.final_loss),
+        "wall_time_s": float(result.wall_time_s),
+        "device": str(result.device),
+        "message": str(result.message),
+        "success": bool(result.success),
+    }
+
+
+def damage_state_message(result: IdentificationResult, *, stamp_ns: int | None = None) -> Any:
+    """The ``PierDamageState`` of a result as a rosbags message object (for CDR/bags).
+
+    See :func:`damage_state_fields` for the mapping and ``stamp_ns``.
+    """
+    from pier_monitor.bags.types import get_typestore
+
+    types = get_typestore().types
+    time_cls = types["builtin_interfaces/msg/Time"]
+    fields = damage_state_fields(result, stamp_ns=stamp_ns)
+    header = fields["header"]
+    fields["header"] = types["std_msgs/msg/Header"](stamp=time_cls(**header["stamp"]),
+                                                    frame_id=header["frame_id"])
+    fields["window_start"] = time_cls(**fields["window_start"])
+    fields["sections"] = [types[_SECTION_TYPE](**s) for s in fields["sections"]]
+    return types[DAMAGE_STATE_TYPE](**fields)
+
+
+def write_damage_state_mcap(result: IdentificationResult, path: str | Path, *,
+                            stamp_ns: int | None = None) -> Path:
+    """Write the result's damage state as a one-message mcap file (replacing ``path``).
+
+    The message is on :func:`damage_state_topic`, logged at its ``header.stamp``.
+
+    Raises
+    ------
+    ReportError
+        Naming the path, if it cannot be written.
+    """
+    from pier_monitor.bags.types import get_typestore
+    from pier_monitor.bags.writer import write_mcap_messages
+
+    path = Path(path)
+    msg = damage_state_message(result, stamp_ns=stamp_ns)
+    cdr = bytes(get_typestore().serialize_cdr(msg, DAMAGE_STATE_TYPE))
+    log_ns = msg.header.stamp.sec * _NS_PER_S + msg.header.stamp.nanosec
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.unlink(missing_ok=True)
+        write_mcap_messages(tmp, [(damage_state_topic(result.pier_id), DAMAGE_STATE_TYPE, True)],
+                            [(max(log_ns, 0), 0, cdr)])
+        os.replace(tmp, path)
+    except (BagError, OSError) as err:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+        raise ReportError(f"{path}: cannot write the damage-state mcap: {err}") from err
+    return path
+
+
+def prepare_result(run: RunLike, window: MeasuredWindow, *,
+                   baseline: IdentificationResult | np.ndarray | None = None,
+                   version: str = __version__) -> IdentificationResult:
+    """The run's result as it is saved: window start, ``k1`` baseline and version filled in.
+
+    ``k1_change_pct`` is recomputed against ``baseline``: the window's design values when
+    ``None``, an earlier result of the same pier (its ``k1``), or an array (N,) in N·m/rad.
+
+    Raises
+    ------
+    ReportError
+        If the run is not of this window, or the baseline is of another pier or shape.
+    """
+    check_window_matches(window, run)
+    result = run.result
+    if baseline is None:
+        base_k1, label = window.design.k1, "design values"
+    elif isinstance(baseline, IdentificationResult):
+        check_same_pier([baseline, result], [f"baseline {baseline.event_id!r}",
+                                             f"result {result.event_id!r}"])
+        base_k1, label = baseline.params.k1, f"event {baseline.event_id}"
+    else:
+        base_k1 = np.asarray(baseline, dtype=float)
+        if base_k1.shape != (len(result.sections),) or not np.all(
+                np.isfinite(base_k1) & (base_k1 > 0)):
+            raise ReportError(f"baseline k1: expected {len(result.sections)} finite positive "
+                              f"values in N·m/rad, got {base_k1.tolist()}")
+        label = "given baseline"
+    result = result.with_k1_baseline(base_k1, label)
+    return replace(result, window_start_ns=int(window.start_time_ns), software_version=version)
+
+
+def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
+                  baseline: IdentificationResult | np.ndarray | None = None,
+                  version: str = __version__) -> ResultsPaths:
+    """Write result.json, damage_state.mcap and the four figures of one identification.
+
+    Existing files of an earlier report in ``out_dir`` are replaced.
+
+    Parameters
+    ----------
+    run : IdentificationRun
+        What :func:`pier_monitor.pinn.identify` returned for ``window``.
+    window : MeasuredWindow
+        The measured window (for the responses figure, the design values and the absolute
+        start time).
+    out_dir : str or Path
+        Directory to write into; created with its parents when missing.
+    baseline : IdentificationResult or ndarray (N,), optional
+        Reference of ``k1_change_pct``: default the design values; an earlier result of the
+        same pier (the profile then shows both events, like the paper's Fig. 18); or ``k1``
+        values in N·m/rad (the profile then shows ``k1`` relative to them).
+    version : str
+        Software version recorded in result.json.
+
+    Returns
+    -------
+    ResultsPaths
+
+    Raises
+    ------
+    ReportError
+        If ``out_dir`` cannot be created or written (the message names it), or the run,
+        window and baseline do not belong together.
+    """
+    out = ensure_dir(out_dir)
+    result = prepare_result(run, window, baseline=baseline, version=version)
+    paths = ResultsPaths(out_dir=out, result_json=out / RESULT_JSON,
+                         damage_state_mcap=out / DAMAGE_STATE_MCAP,
+                         **{k: out / v for k, v in _FIGURES.items()})
+    atomic_write_text(paths.result_json,
+                      json.dumps(result.to_dict(), indent=2, allow_nan=True) + "\n")
+    write_damage_state_mcap(result, paths.damage_state_mcap)
+    saved = _RunWithResult(run, result)
+    if isinstance(baseline, IdentificationResult):
+        plot_profile([baseline, result], None, paths.profile_png)
+    elif baseline is not None:
+        plot_profile([result], None, paths.profile_png, baseline_k1=np.asarray(baseline),
+                     baseline_label="the baseline")
+    else:
+        plot_profile([result], None, paths.profile_png)
+    plot_hysteresis(saved, paths.hysteresis_png)
+    plot_responses(window, saved, paths.responses_png)
+    plot_training(saved, paths.training_png)
+    return paths
+
+
+@dataclass(frozen=True)
+class _RunWithResult:
+    """A run whose result is replaced by the saved one (same responses and history)."""
+
+    run: RunLike
+    result: IdentificationResult
+
+    @property
+    def reproduced(self) -> Any:
+        return self.run.reproduced
+
+    @property
+    def initial(self) -> Any:
+        return self.run.initial
+
+    @property
+    def history(self) -> dict[str, list[Any]]:
+        return self.run.history
+
+
+def load_result(path: str | Path) -> IdentificationResult:
+    """Read a result.json, or the result.json of a results directory.
+
+    Raises
+    ------
+    ReportError
+        Naming the path: missing, not a results directory, or not a pier_monitor result.
+    """
+    path = Path(path)
+    file = path / RESULT_JSON if path.is_dir() else path
+    if not file.is_file():
+        where = f"{path}: no {RESULT_JSON} in this directory" if path.is_dir() else \
+            f"{path}: no such file (expected a {RESULT_JSON} or a directory holding one)"
+        raise ReportError(where)
+    try:
+        return IdentificationResult.load_json(file)
+    except (OSError, ValueError) as err:
+        raise ReportError(f"{file}: cannot read: {err}") from err
+    except (KeyError, TypeError) as err:
+        raise ReportError(f"{file}: not a pier_monitor identification result ({err})") from err
