@@ -241,6 +241,24 @@ class _Problem:
             default = 1e-3 * (self.scale[q] if q != "f" else float(self.scale["f"].max()))
             val = np.full(n, default) if s is None else np.broadcast_to(np.asarray(s, float), (n,))
             self.noise[q] = tt(np.maximum(val, 1e-9 * (default / 1e-3)))
+        # noise of the angles and moments, for the errors-in-variables weighting
+        var_x = np.broadcast_to(np.asarray(self.noise["x"].cpu().numpy()), (n,)) ** 2
+        var_theta = (b ** 2) @ var_x
+        if self.measured_f:
+            var_f = self.noise["f"].cpu().numpy() ** 2
+        else:  # eq. 27 from noisy accelerations and velocities
+            bt_inv = np.linalg.inv(b.T)
+            m = window.geometry.masses_kg
+            var_a = self.noise["a"].cpu().numpy() ** 2
+            var_ag = float(np.asarray(sig.get("ag", np.sqrt(var_a.mean())))) ** 2
+            var_v = self.noise["v"].cpu().numpy() ** 2
+            var_f = ((bt_inv ** 2) @ (m ** 2 * var_a) + (bt_inv @ m) ** 2 * var_ag
+                     + init.c ** 2 * ((b ** 2) @ var_v))
+        self.var_theta = tt(var_theta)
+        self.var_f = tt(var_f)
+        self.hyst_floor = tt(1e-4 * np.abs(f_ref).max(axis=0))
+        self.var_ref = tt(2.0 * var_f + 2.0 * init.k1 ** 2 * var_theta
+                          + (1e-4 * np.abs(f_ref).max(axis=0)) ** 2)
 
     def outputs(self, net: ResponseNet, c: torch.Tensor, tau: torch.Tensor,
                 idx0: np.ndarray | None) -> tuple[PairTensors, dict[str, torch.Tensor]]:
@@ -289,7 +307,11 @@ class _Problem:
             "newmark_a": ms(ph.newmark_acceleration(p, tg["ag1"], c) / sc["a"]),
             "newmark_v": ms(ph.newmark_velocity(p) / sc["v"]),
             "newmark_x": ms(ph.newmark_displacement(p) / sc["x"]),
-            "hysteresis": ms(ph.hysteresis(p, k1, k2, fy) / sc["f"]),
+            # residual over its own standard deviation (relative to the one at the start, so
+            # the term keeps the paper's scale): an errors-in-variables fit of the springs
+            "hysteresis": ms(ph.hysteresis(p, k1, k2, fy) / sc["f"] * torch.sqrt(
+                self.var_ref / ph.hysteresis_variance(p, k1, k2, fy, self.var_f,
+                                                      self.var_theta, self.hyst_floor))),
         }
 
     def total(self, terms: dict[str, torch.Tensor]) -> torch.Tensor:
