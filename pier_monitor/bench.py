@@ -171,13 +171,16 @@ def format_table(results: list[dict[str, Any]]) -> str:
         lines.append("")
         lines.append(f"{'case':<28} {'seed':>4} {'wall_s':>7} {'epochs':>6} "
                      f"{'MAE k1%':>8} {'k2%':>7} {'fy%':>7} {'c%':>7} {'DF%':>7} "
-                     f"{'k2/fy DF>=2':>11} {'yield ok':>8} device")
+                     f"{'k2/fy DF>=2':>11} {'yield ok':>8} {'init k1%':>8} {'init c%':>7} device")
         for r in ident:
             m = r["mae_pct"]
             lines.append(f"{r['case']:<28} {r['seed']:>4} {r['wall_s']:>7.1f} {r['epochs']:>6} "
                          f"{m['k1']:>8.3f} {m['k2']:>7.3f} {m['fy']:>7.3f} {m['c']:>7.3f} "
                          f"{m['df']:>7.3f} {m['k2_fy_df2']:>11.3f} {str(r['yield_detected_ok']):>8} "
-                         f"{r['device']}")
+                         f"{r['initializer_mae_pct']['k1']:>8.3f} "
+                         f"{r['initializer_mae_pct']['c']:>7.3f} {r['device']}")
+        lines.append("(MAE in % of the truth; k2, fy, DF over the springs that truly yield; "
+                     "'init': the equation-error start the PINN trained from)")
         lines.append("")
         lines.append("Per spring (first seed of each case): estimate (error %)")
         seen = set()

@@ -5,6 +5,8 @@ Subcommands
 simulate  simulate a pier under a ground motion; write responses (.npz) or a synthetic
           E-Defense-style bag (rosbag2 directory or .mcap) with its ground truth
 bench     benchmarks against known truth (prints a table, ``--json`` writes results)
+identify  ingest a bag, identify every event with the PINN, write results and figures
+compare   change between two identification results of the same pier
 demo      the main job on the embedded default data
 """
 
@@ -23,6 +25,7 @@ from .core.errors import PierMonitorError
 
 if TYPE_CHECKING:  # pragma: no cover
     from .bags.synthetic_bag import SyntheticBagInfo
+    from .pipeline import BagOutcome
 
 __all__ = ["main", "build_parser"]
 
@@ -79,13 +82,110 @@ def build_parser() -> argparse.ArgumentParser:
                             "the realistic-noise case")
     bench.add_argument("--json", type=Path, help="write the results as JSON to this file")
 
+    ident = sub.add_parser(
+        "identify", help="identify every event of a bag",
+        description="Read a bag (rosbag2 directory or .mcap with the pier configuration "
+                    "inside), detect the mainshock windows, identify k1, k2, fy, c of every "
+                    "section with the PINN and write one results directory per event "
+                    "(window.npz, result.json, damage_state.mcap, figures).")
+    ident.add_argument("bag", type=Path, metavar="BAG", help="rosbag2 directory or .mcap file")
+    ident.add_argument("--out", type=Path, default=None,
+                       help="results root (default results/<bag name>)")
+    _add_training_options(ident)
+
     demo = sub.add_parser("demo", help="the main job on the embedded synthetic bag",
-                          description="Write the synthetic E-Defense-style bag (two runs) and "
-                                      "print its summary.")
+                          description="Write the synthetic E-Defense-style bag (two runs of "
+                                      "increasing damage), identify both events, print the "
+                                      "per-section tables and their comparison, and leave the "
+                                      "figures in the output directory.")
     demo.add_argument("--out", type=Path, default=Path("results/demo"),
                       help="output directory (default results/demo)")
     demo.add_argument("--seed", type=int, default=0, help="seed of the synthetic bag")
+    _add_training_options(demo)
+
+    cmp_ = sub.add_parser(
+        "compare", help="change between two identifications of the same pier",
+        description="Compare two identification results of the same pier (A before, B after): "
+                    "k1 change (%%), ductility factor and state per section. Prints a table and "
+                    "one line per section; writes compare.json and compare_profile.png (k1 and "
+                    "DF along the height of both events).")
+    cmp_.add_argument("result_a", type=Path, metavar="RESULT_A",
+                      help="result.json of the earlier event, or a results directory holding one")
+    cmp_.add_argument("result_b", type=Path, metavar="RESULT_B",
+                      help="result.json of the later event, or a results directory holding one")
+    cmp_.add_argument("--out", type=Path, default=None,
+                      help="output directory (default: the directory of RESULT_B)")
     return parser
+
+
+def _add_training_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
+                        help="where to train (auto: a CUDA GPU when there is one)")
+    parser.add_argument("--train-seed", type=int, default=0, help="seed of the training")
+    parser.add_argument("--max-epochs", type=int, default=None,
+                        help="epoch limit of the training (default: the benchmarked setting)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _identify(bag: Path, out: Path, args: argparse.Namespace) -> "BagOutcome":
+    """Run :func:`pier_monitor.pipeline.identify_bag` with a progress bar on stderr."""
+    from .pinn import PinnSettings
+    from .pipeline import identify_bag
+
+    settings = PinnSettings(device=args.device, seed=args.train_seed)
+    if args.max_epochs is not None:
+        settings.max_epochs = args.max_epochs
+        settings.min_epochs = min(settings.min_epochs, args.max_epochs)
+    bars: dict[str, object] = {}
+
+    def progress(event_id: str, p: object) -> None:
+        if args.no_progress:
+            return
+        from tqdm import tqdm
+
+        bar = bars.get(event_id)
+        if bar is None:
+            bar = bars[event_id] = tqdm(total=p.max_epochs, desc=f"training {event_id}",
+                                        unit="epoch", file=sys.stderr, leave=False)
+        bar.update(1)
+        if p.epoch % 25 == 0:
+            bar.set_postfix(loss=f"{p.loss:.3g}", k1_1=f"{p.k1[0]:.4g}")
+
+    try:
+        return identify_bag(bag, out, settings=settings, progress=progress)
+    finally:
+        for bar in bars.values():
+            bar.close()
+
+
+def _print_outcome(outcome: "BagOutcome") -> None:
+    """Per-event tables of the identified sections."""
+    from .report._common import format_df
+
+    if not outcome.events:
+        print(f"{outcome.bag}: no mainshock found; nothing to identify")
+    for ev in outcome.events:
+        r = ev.result
+        w = ev.window
+        print(f"\nevent {r.event_id}: window {w.duration_s:.1f} s, trained {r.epochs} epochs "
+              f"in {r.wall_time_s:.1f} s on {r.device}; overall state {r.overall_state.upper()}")
+        print(f"{'section':>8} {'z (m)':>11} {'k1 (N·m/rad)':>13} {'k2 (N·m/rad)':>13} "
+              f"{'fy (N·m)':>10} {'c (N·m·s/rad)':>14} {'DF':>7} {'state':>10} {'k1 change':>10}")
+        for sec in r.sections:
+            k2 = f"{sec.k2:.4g}" if sec.k2_identifiable else "n/a"
+            fy = f"{sec.fy:.4g}" if sec.fy_identifiable else f">={sec.fy:.3g}"
+            ch = "" if sec.k1_change_pct is None else f"{sec.k1_change_pct:+.1f} %"
+            print(f"{sec.index + 1:>8} {sec.z_bottom_m:>5.1f}-{sec.z_top_m:<5.1f} {sec.k1:>13.4g} "
+                  f"{k2:>13} {fy:>10} {sec.c:>14.4g} {format_df(sec.ductility_factor, sec.yielded):>7} "
+                  f"{sec.state:>10} {ch:>10}")
+        print(f"results: {ev.out_dir}")
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    out = args.out if args.out is not None else Path("results") / args.bag.name.removesuffix(".mcap")
+    outcome = _identify(args.bag, out, args)
+    _print_outcome(outcome)
+    return 0
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -195,10 +295,40 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         stale.unlink(missing_ok=True)
     info = write_synthetic_edefense_bag(bag, fmt="rosbag2", seed=args.seed)
     print(_bag_summary(info))
+    outcome = _identify(bag, args.out / "identified", args)
+    _print_outcome(outcome)
+    if len(outcome.events) >= 2:
+        from .report.compare import write_comparison
+
+        first, last = outcome.events[0], outcome.events[-1]
+        comparison, paths = write_comparison(first.result, last.result, args.out,
+                                             sources=(str(first.out_dir), str(last.out_dir)))
+        print(f"\ncomparison of the first and the last event")
+        print(comparison.table())
+        print("\n".join(comparison.summary_lines()))
+        print(f"figures: {paths.profile_png} and in each event directory")
     return 0
 
 
-_COMMANDS = {"simulate": _cmd_simulate, "bench": _cmd_bench, "demo": _cmd_demo}
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from .report.compare import write_comparison
+    from .report.results import load_result
+
+    a, b = load_result(args.result_a), load_result(args.result_b)
+    out = args.out
+    if out is None:
+        out = args.result_b if args.result_b.is_dir() else args.result_b.parent
+    comparison, paths = write_comparison(a, b, out, sources=(str(args.result_a),
+                                                             str(args.result_b)))
+    print(comparison.table())
+    print()
+    print("\n".join(comparison.summary_lines()))
+    print(f"wrote {paths.compare_json}, {paths.profile_png}")
+    return 0
+
+
+_COMMANDS = {"simulate": _cmd_simulate, "bench": _cmd_bench, "demo": _cmd_demo,
+             "compare": _cmd_compare, "identify": _cmd_identify}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -9,7 +9,10 @@ simulation with known truth.
 
 from __future__ import annotations
 
+import json
+import zipfile
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -18,7 +21,7 @@ from .config import PierGeometry, SpringParameters
 from .errors import InputDataError
 from .model import check_response_array
 
-__all__ = ["MeasuredWindow", "QUANTITIES"]
+__all__ = ["MeasuredWindow", "QUANTITIES", "save_window", "load_window"]
 
 #: Response quantities of a window, in the order of the PINN's outputs.
 QUANTITIES = ("a", "v", "x", "f")
@@ -109,3 +112,58 @@ class MeasuredWindow:
     def moments_measured(self) -> bool:
         """Whether restoring moments were measured."""
         return self.moments is not None
+
+
+def save_window(window: MeasuredWindow, path: str | Path) -> Path:
+    """Write a window to one ``.npz`` file (arrays plus a JSON header); returns the path.
+
+    The identifier writes every window to disk before it trains on it, so that a crash
+    loses no event.
+    """
+    path = Path(path)
+    header = {
+        "pier_id": window.pier_id, "event_id": window.event_id,
+        "start_time_ns": int(window.start_time_ns),
+        "section_heights_m": window.geometry.section_heights_m.tolist(),
+        "masses_kg": window.geometry.masses_kg.tolist(), "design": window.design.as_dict(),
+        "sigma": {k: np.asarray(v, dtype=float).tolist() for k, v in window.sigma.items()},
+        "report": window.report,
+    }
+    arrays = {"t": window.t, "ag": window.ag, "a": window.a, "v": window.v, "x": window.x}
+    if window.moments is not None:
+        arrays["moments"] = window.moments
+    tmp = path.with_name(path.name + ".part")
+    with tmp.open("wb") as fh:
+        np.savez(fh, header=np.array(json.dumps(header)), **arrays)
+    tmp.replace(path)  # atomic: a reader never sees half a window
+    return path
+
+
+def load_window(path: str | Path) -> MeasuredWindow:
+    """Read a file written by :func:`save_window`.
+
+    Raises
+    ------
+    InputDataError
+        Naming the file when it is missing, truncated or not a window.
+    """
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            header = json.loads(str(data["header"]))
+            arrays = {k: np.array(data[k]) for k in data.files if k != "header"}
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError) as err:
+        raise InputDataError(f"{path}: not a readable window file: {err}") from err
+    try:
+        return MeasuredWindow(
+            pier_id=header["pier_id"], event_id=header["event_id"],
+            geometry=PierGeometry(np.array(header["section_heights_m"]),
+                                  np.array(header["masses_kg"])),
+            design=SpringParameters(**{k: np.array(v) for k, v in header["design"].items()}),
+            t=arrays["t"], ag=arrays["ag"], a=arrays["a"], v=arrays["v"], x=arrays["x"],
+            moments=arrays.get("moments"),
+            sigma={k: (np.array(v) if isinstance(v, list) else v)
+                   for k, v in header["sigma"].items()},
+            start_time_ns=int(header["start_time_ns"]), report=header["report"])
+    except KeyError as err:
+        raise InputDataError(f"{path}: window file lacks {err}") from err

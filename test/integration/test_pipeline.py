@@ -1,0 +1,100 @@
+"""End to end: synthetic bag → ingest → PINN → results, and the command line around it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pier_monitor.bags import read_bag, write_bag
+from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
+from pier_monitor.cli import main
+from pier_monitor.core.damage import IdentificationResult
+from pier_monitor.core.errors import BagError, ReportError
+from pier_monitor.core.recording import Recording
+from pier_monitor.core.window import load_window
+from pier_monitor.pinn import PinnSettings
+from pier_monitor.pipeline import identify_bag
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory):
+    out = tmp_path_factory.mktemp("pipeline") / "edefense.mcap"
+    return write_synthetic_edefense_bag(out, fmt="mcap", seed=3)
+
+
+@pytest.fixture(scope="module")
+def identified(bag, tmp_path_factory):
+    out = tmp_path_factory.mktemp("results")
+    settings = PinnSettings(max_epochs=150, min_epochs=50)  # short: the start is already close
+    return identify_bag(bag.bag.path, out, settings=settings), out
+
+
+def test_second_run_shows_the_larger_stiffness_loss_where_the_truth_has_it(bag, identified):
+    outcome, _ = identified
+    truth = bag.truth.runs
+    assert len(outcome.events) == 2
+    r1, r2 = (ev.result for ev in outcome.events)
+    est_change = 100 * (r2.params.k1 / r1.params.k1 - 1)
+    true_change = 100 * (truth[1].params.k1 / truth[0].params.k1 - 1)
+    # direction and ranking: the sections weakened in the truth lose the most stiffness
+    damaged = np.argsort(true_change)[:2]
+    intact = np.argsort(true_change)[2:]
+    assert set(np.argsort(est_change)[:2]) == set(damaged)
+    np.testing.assert_allclose(est_change, true_change, atol=2.0)  # percentage points
+    assert np.all(est_change[damaged] < -10) and np.all(np.abs(est_change[intact]) < 3)
+    # ductility: run 2 drives sections 1-2 far into yield
+    df1, df2 = r1.ductility_factors, r2.ductility_factors
+    assert np.all(df2[damaged] > df1[damaged])
+    np.testing.assert_allclose(df2[damaged], truth[1].ductility_factors[damaged], rtol=0.02)
+    assert [s.state for s in r2.sections][:2] == ["damaged", "damaged"]
+    # the second event's k1 change is relative to the first event
+    assert r2.sections[0].k1_change_pct == pytest.approx(est_change[0], abs=1e-6)
+
+
+def test_every_event_leaves_its_window_results_and_figures(identified):
+    outcome, out = identified
+    for ev in outcome.events:
+        window = load_window(ev.window_file)
+        np.testing.assert_array_equal(window.x, ev.window.x)
+        result = IdentificationResult.load_json(ev.out_dir / "result.json")
+        assert result == ev.result
+        for name in ("damage_state.mcap", "profile.png", "hysteresis.png", "responses.png",
+                     "training.png"):
+            assert (ev.out_dir / name).stat().st_size > 1000, name
+
+
+def test_bag_without_sensor_samples_is_a_clear_error(bag, tmp_path):
+    rec = read_bag(bag.bag.path)
+    empty = Recording(rec.config, {}, source="empty")
+    with pytest.raises(BagError, match="no samples"):
+        write_bag(empty, tmp_path / "empty.mcap")
+
+
+def test_unwritable_output_directory_names_it(bag, tmp_path):
+    blocked = tmp_path / "file"
+    blocked.write_text("not a directory")
+    with pytest.raises(ReportError, match="file"):
+        identify_bag(bag.bag.path, blocked / "results")
+
+
+def test_command_line_identify_and_compare(bag, tmp_path, capsys):
+    out = tmp_path / "cli"
+    rc = main(["identify", str(bag.bag.path), "--out", str(out), "--max-epochs", "60",
+               "--no-progress"])
+    text = capsys.readouterr().out
+    assert rc == 0
+    assert text.count("overall state") == 2 and "k1 change" in text
+    events = sorted(p for p in out.iterdir() if p.is_dir())
+    rc = main(["compare", str(events[0]), str(events[1]), "--out", str(tmp_path / "cmp")])
+    text = capsys.readouterr().out
+    assert rc == 0 and "section 1 (0.0-2.0 m): k1 -" in text
+    doc = json.loads((tmp_path / "cmp" / "compare.json").read_text())
+    assert len(doc["sections"]) == 4
+
+
+def test_command_line_reports_a_missing_bag(tmp_path, capsys):
+    rc = main(["identify", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "o")])
+    assert rc == 2
+    assert "nope.mcap: no such bag" in capsys.readouterr().err
