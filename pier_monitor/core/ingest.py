@@ -29,6 +29,7 @@ data within ``context_s`` of the event, and the trigger is causal with a fixed t
 from __future__ import annotations
 
 import math
+from datetime import datetime, timezone
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -365,6 +366,12 @@ def detect_events(ag: np.ndarray, rate_hz: float, threshold_mps2: float,
     return out
 
 
+def _event_id(pier_id: str, start_ns: int) -> str:
+    """``<pier>_<UTC start of the window>``, e.g. ``pier7_20240312T010027Z``."""
+    stamp = datetime.fromtimestamp(start_ns // NS_PER_S, tz=timezone.utc)
+    return f"{pier_id}_{stamp.strftime('%Y%m%dT%H%M%SZ')}"
+
+
 def _trigger_threshold(config: PierConfig, settings: IngestSettings) -> float:
     noise = [s.noise_rms * s.si_factor / abs(s.gain) for s in config.sensors
              if s.level == 0 and s.kind == "acceleration"]
@@ -539,7 +546,7 @@ def ingest_recording(recording: Recording, settings: IngestSettings | None = Non
             d = estimate_principal_direction(ag_xy[w0:w1] - ag_xy[w0:w1].mean(axis=0))
             report.add("principal_direction", f"event{k + 1}",
                        f"estimated from the foundation acceleration: {d:.2f} deg")
-        event_id = f"{config.pier_id}_{(t0 + int(w0 * NS_PER_S / rate))}"
+        event_id = _event_id(config.pier_id, t0 + int(w0 * NS_PER_S / rate))
         windows.append(_window_from_span(recording, cleaned, t0, rate, w0, w1, d, settings,
                                          report, event_id))
     if not spans:

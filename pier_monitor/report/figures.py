@@ -286,7 +286,7 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         ax_k.set_ylabel("height above the foundation z (m)")
         ax_k.set_ylim(min(0.0, float(zb.min())), float(zt.max()))
         ax_k.set_title(r"elastic stiffness $k_1$ per section"
-                       + (f"\nlabels: change {labels[1]} vs {labels[0]}" if len(results) == 2
+                       + ("\n(% labels: change of the later event)" if len(results) == 2
                           else ""))
         ax_df.set_title("ductility factor per section")
         # section numbers on the right
@@ -299,10 +299,9 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
 
-        ax_k.legend(handles=[Line2D([], [], color=c, lw=2.0, marker=m, ms=7, label=lab)
-                             for _, m, c, lab in event_handles],
-                    loc="best", framealpha=0.95, title="event")
-        handles = [Patch(color=_BAND_COLORS["intact"], alpha=0.35,
+        handles = [Line2D([], [], color=c, lw=2.0, marker=m, ms=7, label=lab)
+                   for _, m, c, lab in event_handles]
+        handles += [Patch(color=_BAND_COLORS["intact"], alpha=0.35,
                           label=f"intact: DF < {SUSPICIOUS_DF:g}"),
                     Patch(color=_BAND_COLORS["suspicious"], alpha=0.45,
                           label=f"suspicious: {SUSPICIOUS_DF:g} ≤ DF < {DAMAGED_DF:g}"),
@@ -312,7 +311,7 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
             handles.append(Line2D([], [], ls="none", marker="o", ms=7, mfc="white", mec="0.2",
                                   mew=1.6, label="open marker: spring did not yield,\n"
                                                  "DF is only an upper bound"))
-        fig.legend(handles=handles, loc="outside lower center", ncols=min(4, len(handles)),
+        fig.legend(handles=handles, loc="outside lower center", ncols=min(3, len(handles)),
                    frameon=False)
         events = " vs ".join(labels) if len(labels) > 1 else labels[0]
         fig.suptitle(f"Pier {ref.pier_id}: $k_1$ and ductility factor along the height — "
