@@ -143,6 +143,13 @@ def bench_more() -> list[dict[str, Any]]:
         out.append(run_identification_case(
             f"long_duration_{'moments' if moments else 'no_moments'}", moments_measured=moments,
             seed=0, ground_motion=long_gm, window_s=(30.0, 60.0)))
+    # a real record: El Centro 1940 NS at its own scale (PGA 3.07 m/s², DF 4.8 / 3.7 / 0.95)
+    from .core.ground_motion import el_centro_1940
+
+    for moments in (True, False):
+        out.append(run_identification_case(
+            f"el_centro_1940_{'moments' if moments else 'no_moments'}", moments_measured=moments,
+            seed=0, ground_motion=el_centro_1940(), window_s=(1.0, 21.0)))
     window, truth, resp = realistic_case_window(seed=0)
     out.append(score_identification("realistic_noise", window, truth, resp, seed=0,
                                      noise="acc 1e-3 m/s2, wire 0.1 mm, no v, no f"))

@@ -25,7 +25,8 @@ from scipy import signal
 from .errors import GroundMotionError
 from .units import to_si_factor
 
-__all__ = ["GroundMotion", "synthetic_near_fault", "load_accelerogram", "UNIT_CHOICES"]
+__all__ = ["GroundMotion", "synthetic_near_fault", "load_accelerogram", "el_centro_1940",
+           "UNIT_CHOICES"]
 
 UNIT_CHOICES = ("g", "gal", "mps2")
 
@@ -280,3 +281,16 @@ def load_accelerogram(path: str | Path, units: str, dt: float | None = None) -> 
             f"{path.name}: peak {np.max(np.abs(acc)):.3g} m/s^2 after converting from {units!r} "
             "is implausible for a ground motion (> 5 g); check the declared units")
     return GroundMotion(acc, float(file_dt), path.name)
+
+
+def el_centro_1940() -> GroundMotion:
+    """The 1940 Imperial Valley (El Centro, NS) record shipped with the package, m/s².
+
+    US Geological Survey, public domain; 3995 samples at 0.02 s, PGA 3.07 m/s² (0.313 g).
+    """
+    from importlib import resources
+
+    ref = resources.files("pier_monitor") / "data" / "elcentro_1940_ns_g.txt"
+    with resources.as_file(ref) as path:
+        gm = load_accelerogram(path, units="g", dt=0.02)
+    return GroundMotion(gm.acc, gm.dt, "El Centro 1940 NS")

@@ -82,3 +82,11 @@ def test_bad_accelerogram_files_give_clear_errors(tmp_path, content, kwargs, mat
 def test_missing_accelerogram_file(tmp_path):
     with pytest.raises(GroundMotionError, match="cannot read accelerogram"):
         load_accelerogram(tmp_path / "nope.txt", units="g", dt=0.01)
+
+
+def test_el_centro_record_ships_with_the_package():
+    from pier_monitor.core.ground_motion import el_centro_1940
+
+    gm = el_centro_1940()
+    assert gm.dt == 0.02 and gm.acc.size == 3995
+    assert gm.pga == pytest.approx(0.3129 * G_STANDARD, rel=1e-3)
