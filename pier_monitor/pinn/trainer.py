@@ -426,6 +426,10 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
     ref = torch.as_tensor(np.stack([init.k1, init.k2, init.fy, init.c]), dtype=torch.float64,
                           device=device)
     ref = torch.where(ref > 0, ref, torch.ones_like(ref))
+    # a spring that did not yield is held elastic: its fy goes to the cap, far from the
+    # moments, so the clip of the hysteresis rule never acts on noise at the peaks (a held
+    # fy equal to the largest moment would clip there and drag k1)
+    ref[2] = torch.where(torch.as_tensor(~yielded0, device=device), problem.f_cap, ref[2])
     logp = torch.zeros_like(ref, requires_grad=True)
     # held parameters: k2, fy of springs that did not yield
     free = torch.ones_like(ref)
@@ -506,7 +510,7 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
         for i in range(n)])
     if np.any(~yielded):  # never yielded: fy only bounded below by the largest moment
         fy_arr = params.fy.copy()
-        fy_arr[~yielded] = np.maximum(fy_arr[~yielded], np.abs(rep["f"][:, ~yielded]).max(axis=0))
+        fy_arr[~yielded] = np.abs(rep["f"][:, ~yielded]).max(axis=0)
         params = SpringParameters(params.k1, params.k2, fy_arr, params.c)
     sections = build_sections(geometry, params, theta, yielded,
                               baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1)
