@@ -21,7 +21,7 @@ from .config import PierGeometry, SpringParameters
 from .errors import InputDataError
 from .model import check_response_array
 
-__all__ = ["MeasuredWindow", "QUANTITIES", "save_window", "load_window"]
+__all__ = ["MeasuredWindow", "Reproduced", "QUANTITIES", "save_window", "load_window"]
 
 #: Response quantities of a window, in the order of the PINN's outputs.
 QUANTITIES = ("a", "v", "x", "f")
@@ -112,6 +112,22 @@ class MeasuredWindow:
     def moments_measured(self) -> bool:
         """Whether restoring moments were measured."""
         return self.moments is not None
+
+
+@dataclass(frozen=True)
+class Reproduced:
+    """Responses reproduced by an identification over its window, time-first, SI.
+
+    ``t`` (T,) s; ``a, v, x`` (T, N) relative acceleration, velocity, displacement;
+    ``theta`` (T, N) spring angles, rad; ``moment`` (T, N) restoring moments, N·m.
+    """
+
+    t: np.ndarray
+    a: np.ndarray
+    v: np.ndarray
+    x: np.ndarray
+    theta: np.ndarray
+    moment: np.ndarray
 
 
 def save_window(window: MeasuredWindow, path: str | Path) -> Path:

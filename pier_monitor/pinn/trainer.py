@@ -35,12 +35,12 @@ from ..core.damage import IdentificationResult, build_sections, overall_state
 from ..core.equation_error import fit_equation_error, inertia_moments, yield_test
 from ..core.errors import IdentificationError, InputDataError
 from ..core.model import angle_matrix
-from ..core.window import MeasuredWindow
+from ..core.window import MeasuredWindow, Reproduced
 from .network import ResponseNet
 from .physics import PairTensors, Physics
 
-__all__ = ["PAPER_TERM_WEIGHTS", "DEFAULT_TERM_WEIGHTS", "PinnSettings", "Progress", "Reproduced", "IdentificationRun", "identify",
-           "resolve_device"]
+__all__ = ["PAPER_TERM_WEIGHTS", "DEFAULT_TERM_WEIGHTS", "PinnSettings", "Progress", "Reproduced",
+           "IdentificationRun", "identify", "resolve_device"]
 
 log = logging.getLogger(__name__)
 
@@ -158,18 +158,6 @@ class Progress:
     fy: np.ndarray
     c: np.ndarray
     elapsed_s: float
-
-
-@dataclass(frozen=True)
-class Reproduced:
-    """Responses reproduced by the trained network over the window, time-first, SI."""
-
-    t: np.ndarray
-    a: np.ndarray
-    v: np.ndarray
-    x: np.ndarray
-    theta: np.ndarray
-    moment: np.ndarray
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from ._common import check_same_pier, engineering_scale, format_df
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-    from pier_monitor.core.window import MeasuredWindow
+    from pier_monitor.core.window import MeasuredWindow, Reproduced
 
 __all__ = [
     "FIGURE_DPI",
@@ -84,17 +84,6 @@ _PARAM_LABELS = (
 )
 
 
-class ReproducedLike(Protocol):
-    """Responses reproduced over the window, time-first, SI (see ``pinn.trainer.Reproduced``)."""
-
-    t: np.ndarray
-    a: np.ndarray
-    v: np.ndarray
-    x: np.ndarray
-    theta: np.ndarray
-    moment: np.ndarray
-
-
 class RunLike(Protocol):
     """What the figures need of an identification run (``pinn.IdentificationRun``).
 
@@ -102,7 +91,7 @@ class RunLike(Protocol):
     """
 
     result: IdentificationResult
-    reproduced: ReproducedLike
+    reproduced: Reproduced
     initial: SpringParameters
     history: dict[str, list[Any]]
 
@@ -137,7 +126,7 @@ def _section_span(r: IdentificationResult, i: int) -> str:
     return f"{s.z_bottom_m:g}–{s.z_top_m:g} m"
 
 
-def _check_run(run: RunLike) -> tuple[IdentificationResult, ReproducedLike]:
+def _check_run(run: RunLike) -> tuple[IdentificationResult, Reproduced]:
     res, rep = run.result, run.reproduced
     n = len(res.sections)
     for name in ("theta", "moment", "x", "a"):
