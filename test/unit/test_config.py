@@ -33,8 +33,9 @@ def test_table1_config_loads_with_paper_values():
 
 
 def test_every_shipped_config_loads_and_round_trips_through_yaml():
-    files = sorted(CONFIG_DIR.glob("*.yaml"))
-    assert files
+    # pier configurations; the ROS parameter files (``ros__parameters``) are for the nodes
+    files = sorted(p for p in CONFIG_DIR.glob("*.yaml") if "ros__parameters" not in p.read_text())
+    assert len(files) >= 2
     for path in files:
         cfg = load_config(path)
         again = config_from_yaml(cfg.to_yaml(), source="again")

@@ -146,3 +146,14 @@ def test_bad_settings_and_missing_gpu_are_clear_errors():
     if not torch.cuda.is_available():
         with pytest.raises(IdentificationError, match="device 'cuda' requested but no CUDA GPU"):
             identify(window, PinnSettings(device="cuda"))
+
+
+@pytest.mark.parametrize("residual", [True, False])
+def test_the_papers_relu_batchnorm_network_trains_too(residual):
+    window, truth = _small_window(moments=True)
+    settings = PinnSettings(arch="paper", hidden=16, layers=3, residual=residual,
+                            warmup_epochs=0 if residual else 30, max_epochs=40, min_epochs=10)
+    run = identify(window, settings)
+    assert run.result.epochs >= 10
+    assert np.all(np.isfinite(run.reproduced.x))
+    np.testing.assert_allclose(run.result.params.k1, truth.k1, rtol=0.05)

@@ -1,0 +1,362 @@
+"""The live graph: ingest and identifier nodes as real rclpy processes (SPEC §7, §9).
+
+A short two-run synthetic bag (0.5 s blocks) is replayed at 8x real time into the nodes on a
+private ROS_DOMAIN_ID; the training is tiny (6 epochs) and the offline pipeline runs with the
+same settings for comparison.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from conftest import REPO_ROOT
+
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(170)]
+
+NS = "/edefense_pier"
+TINY = {"device": "cpu", "seed": 0, "max_epochs": 6, "min_epochs": 1}
+RUN_SCRIPT = ("import runpy, sys; script = sys.argv.pop(1); sys.argv[0] = script; "
+              "runpy.run_path(script, run_name='__main__')")
+RUN_MODULE = ("import runpy, sys; module = sys.argv.pop(1); "
+              "runpy.run_module(module, run_name='__main__', alter_sys=True)")
+
+
+@pytest.fixture(scope="module")
+def short_bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int]:
+    """An 88 s two-run bag and the number of samples it holds."""
+    from pier_monitor.bags import read_bag, write_bag
+    from pier_monitor.core.config import load_config
+    from pier_monitor.core.resources import find_config_file
+    from pier_monitor.core.synthetic import edefense_scenario, generate_recording
+
+    config = load_config(find_config_file("edefense_like.yaml"))
+    scenario = edefense_scenario(record_s=20.0, lead_s=12.0, gap_s=18.0, tail_s=18.0)
+    synthetic = generate_recording(config, scenario, seed=1)
+    path = tmp_path_factory.mktemp("live") / "short.mcap"
+    write_bag(synthetic.recording, path, block_s=0.5)
+    n_samples = sum(r.n_samples for r in read_bag(path).sensors.values())
+    return path, n_samples
+
+
+@pytest.fixture(scope="module")
+def offline(short_bag: tuple[Path, int], tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """identify_bag on the same bag with the same settings as the live identifier."""
+    from pier_monitor.pinn import PinnSettings
+    from pier_monitor.pipeline import identify_bag
+
+    return identify_bag(short_bag[0], tmp_path_factory.mktemp("offline"),
+                        settings=PinnSettings(**TINY))
+
+
+def params_file(path: Path, data: Path, **identifier: Any) -> Path:
+    """A ros__parameters file for both nodes (tiny training unless overridden)."""
+    import yaml
+
+    ident = {"window_dir": str(data / "windows"), "results_dir": str(data / "results"),
+             "progress_every": 1, "write_figures": False, **TINY, **identifier}
+    path.write_text(yaml.safe_dump({
+        "/**/ingest": {"ros__parameters": {"window_dir": str(data / "windows"),
+                                           "status_period_s": 0.5}},
+        "/**/identifier": {"ros__parameters": ident}}))
+    return path
+
+
+class Listener:
+    """Test-side subscriptions, spun on a background SingleThreadedExecutor."""
+
+    def __init__(self, context: Any, typestore: Any) -> None:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from pier_monitor_msgs.msg import IdentificationProgress, PierDamageState
+        from rclpy.executors import SingleThreadedExecutor
+
+        from pier_monitor.nodes.identifier_node import DAMAGE_STATE_QOS
+
+        self.node = rclpy.create_node("test_listener", context=context)
+        self.states: list[Any] = []
+        self.status: list[Any] = []
+        self.diagnostics: list[Any] = []
+        self.progress: list[tuple[float, Any]] = []
+
+        def on_state(raw: bytes) -> None:  # knows only the .msg text: rosbags decodes
+            self.states.append(typestore.deserialize_cdr(
+                raw, "pier_monitor_msgs/msg/PierDamageState"))
+
+        self.node.create_subscription(PierDamageState, f"{NS}/damage_state", on_state,
+                                      DAMAGE_STATE_QOS, raw=True)
+        self.node.create_subscription(DiagnosticArray, f"{NS}/ingest_status",
+                                      self.status.append, 10)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics",
+                                      self.diagnostics.append, 50)
+        self.node.create_subscription(
+            IdentificationProgress, f"{NS}/identification_progress",
+            lambda m: self.progress.append((time.monotonic(), m)), 100)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def wait(self, predicate: Any, timeout_s: float, what: str) -> None:
+        deadline = time.monotonic() + timeout_s
+        while not predicate():
+            if time.monotonic() > deadline:
+                pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
+            time.sleep(0.1)
+
+    def ingest_values(self) -> dict[str, str]:
+        for arr in reversed(self.status):
+            for st in arr.status:
+                if st.name.endswith("/ingest"):
+                    return {kv.key: kv.value for kv in st.values}
+        return {}
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.thread.join(timeout=5)
+        self.node.destroy_node()
+
+
+@pytest.fixture
+def listener(rclpy_context: Any, msg_typestore: Any) -> Any:
+    lis = Listener(rclpy_context, msg_typestore)
+    yield lis
+    lis.close()
+
+
+def start_node(spawn_python: Any, module: str, params: Path, *extra: str) -> Any:
+    child = spawn_python(RUN_MODULE, f"pier_monitor.nodes.{module}", "--ros-args", "-r",
+                         f"__ns:={NS}", "--params-file", str(params), *extra)
+    child.wait_for_line("READY", 30)
+    return child
+
+
+def interrupt(child: Any, timeout_s: float = 20.0) -> int:
+    child.popen.send_signal(signal.SIGINT)
+    return child.popen.wait(timeout=timeout_s)
+
+
+def expected_level(df: float) -> bytes:
+    from diagnostic_msgs.msg import DiagnosticStatus
+
+    return (DiagnosticStatus.OK if df < 1.2 else DiagnosticStatus.WARN if df < 1.5
+            else DiagnosticStatus.ERROR)
+
+
+def test_replayed_bag_is_fully_ingested_and_diagnosed_like_offline(
+        short_bag, offline, listener, spawn_python, tmp_path):
+    from pier_monitor.report.results import damage_state_fields
+
+    bag, n_samples = short_bag
+    params = params_file(tmp_path / "params.yaml", tmp_path)
+    graph = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/start_graph.py"),
+                         "--namespace", NS, "--params-file", str(params))
+    graph.wait_for_line("READY", 30)
+    graph.wait_for_line("READY", 30)
+    replay = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/replay_bag.py"),
+                          str(bag), "--rate", "8")
+    sent = replay.wait_for_line("SENT", 90)
+    replay_end = time.monotonic()
+    sent_samples = int(sent.split("samples=")[1].split()[0])
+    assert sent_samples == n_samples
+    assert replay.stop() == 0
+
+    listener.wait(lambda: len(listener.states) >= 2, 90, "two damage states")
+    listener.wait(lambda: listener.ingest_values().get("samples_received") == str(n_samples),
+                  15, f"ingest status counting {n_samples} samples")
+    status = listener.ingest_values()
+    assert status["messages_dropped"] == "0" and status["gap_samples"] == "0"
+    assert status["windows_emitted"] == "2"
+    # the identifier trained on run 1 while run 2 was still being replayed, and the
+    # ingest still accounted for every sample (above)
+    first_event = offline.events[0].window.event_id
+    assert any(t < replay_end for t, m in listener.progress if m.event_id == first_event)
+
+    assert [s.event_id for s in listener.states] == [e.window.event_id for e in offline.events]
+    for live, ev in zip(listener.states, offline.events):
+        want = damage_state_fields(ev.result)
+        assert live.success and live.overall_state == want["overall_state"]
+        assert live.epochs == want["epochs"]
+        assert live.final_loss == pytest.approx(want["final_loss"], rel=1e-6)
+        for got, exp in zip(live.sections, want["sections"], strict=True):
+            assert got.state == exp["state"]
+            for key in ("k1", "k2", "fy", "c", "ductility_factor", "k1_change_pct"):
+                if math.isnan(exp[key]):
+                    assert math.isnan(getattr(got, key))
+                else:
+                    assert getattr(got, key) == pytest.approx(exp[key], rel=1e-6), key
+
+    # /diagnostics: one status per section of the last event, level from its DF class
+    last = offline.events[-1].result
+    listener.wait(lambda: any(any(s.name.endswith("section_1") and
+                                  {kv.key: kv.value for kv in s.values}.get("event_id")
+                                  == last.event_id for s in a.status)
+                              for a in listener.diagnostics), 10, "section diagnostics")
+    arr = next(a for a in reversed(listener.diagnostics)
+               if any(s.name.endswith("section_1") for s in a.status))
+    sections = [s for s in arr.status if "/section_" in s.name]
+    assert len(sections) == len(last.sections)
+    for st, sec in zip(sections, last.sections):
+        values = {kv.key: kv.value for kv in st.values}
+        assert st.level == expected_level(sec.ductility_factor), st.name
+        assert float(values["ductility_factor"]) == pytest.approx(sec.ductility_factor,
+                                                                  rel=1e-5)
+        assert {"k1", "k1_change_pct"} <= set(values)
+    assert interrupt(graph) == 0  # Ctrl-C stops both nodes cleanly
+
+
+def test_identifier_killed_mid_training_resumes_from_the_window_on_disk(
+        offline, listener, spawn_python, tmp_path):
+    from pier_monitor.report.results import damage_state_fields
+
+    event = offline.events[0]
+    windows = tmp_path / "windows"
+    windows.mkdir()
+    shutil.copy(event.window_file, windows / f"{event.window.event_id}.npz")
+    long_run = params_file(tmp_path / "long.yaml", tmp_path, max_epochs=5000, min_epochs=5000)
+    ident = start_node(spawn_python, "identifier_node", long_run)
+    listener.wait(lambda: len(listener.progress) >= 2, 60, "training progress")
+    ident.popen.kill()  # SIGKILL mid-training
+    ident.popen.wait(timeout=10)
+    result_dir = tmp_path / "results" / event.window.event_id
+    assert not (result_dir / "result.json").exists()
+
+    tiny = params_file(tmp_path / "tiny.yaml", tmp_path)
+    ident = start_node(spawn_python, "identifier_node", tiny)
+    listener.wait(lambda: len(listener.states) >= 1, 60, "the damage state after restart")
+    state = listener.states[-1]
+    assert state.event_id == event.window.event_id and state.success
+    assert (result_dir / "result.json").is_file() and (result_dir / "damage_state.mcap").is_file()
+    want = damage_state_fields(event.result)
+    np.testing.assert_allclose([s.ductility_factor for s in state.sections],
+                               [s["ductility_factor"] for s in want["sections"]], rtol=1e-6)
+    assert interrupt(ident) == 0
+
+
+def test_bad_parameters_bad_messages_and_failed_training_keep_the_nodes_running(
+        offline, listener, rclpy_context, spawn_python, tmp_path):
+    from pier_monitor_msgs.msg import SampleBlock
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import Imu
+
+    from pier_monitor.core.config import load_config
+    from pier_monitor.core.resources import find_config_file
+    from pier_monitor.nodes.ingest_node import SENSOR_QOS
+
+    config_path = find_config_file("edefense_like.yaml")
+    config = load_config(config_path)
+    event = offline.events[0]
+    (tmp_path / "windows").mkdir()
+    shutil.copy(event.window_file, tmp_path / "windows" / f"{event.window.event_id}.npz")
+    # device cuda on a machine without a GPU: the training fails, an error state results
+    params = params_file(tmp_path / "p.yaml", tmp_path, device="cuda")
+    ingest = start_node(spawn_python, "ingest_node", params, "-p",
+                        f"config_file:={config_path}")
+    ident = start_node(spawn_python, "identifier_node", params)
+
+    listener.wait(lambda: len(listener.states) >= 1, 30, "the failed damage state")
+    failed = listener.states[-1]
+    assert not failed.success and failed.overall_state == 3 and "cuda" in failed.message
+    assert all(s.state == 3 for s in failed.sections)
+
+    node = listener.node
+
+    def set_param(target: str, name: str, value: Any) -> Any:
+        client = AsyncParameterClient(node, f"{NS}/{target}")
+        assert client.wait_for_services(timeout_sec=10)
+        future = client.set_parameters([Parameter(name, value=value)])
+        deadline = time.monotonic() + 10
+        while not future.done() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        return future.result().results[0]
+
+    bad = [("ingest", "status_period_s", -1.0, "status_period_s|range|bound"),
+           ("ingest", "window_dir", "/elsewhere", "read-only|read only"),
+           ("identifier", "device", "gpu", "device"),
+           ("identifier", "min_epochs", 100000, "min_epochs"),
+           ("identifier", "max_epochs", 0, "max_epochs|range|bound")]
+    for target, name, value, reason in bad:
+        res = set_param(target, name, value)
+        assert not res.successful and res.reason, (name, value)
+        assert __import__("re").search(reason, res.reason), res.reason
+    assert set_param("identifier", "device", "cpu").successful
+
+    spec = config.sensors[0]
+    topic = f"{NS}/{spec.topic.lstrip('/')}"
+    pub = node.create_publisher(SampleBlock, topic, SENSOR_QOS)
+    listener.wait(lambda: pub.get_subscription_count() > 0, 10, "the ingest subscription")
+
+    def block(**changes: Any) -> Any:
+        msg = SampleBlock(sensor_id=spec.sensor_id, kind=0, unit=spec.unit,
+                          sample_rate_hz=config.sample_rate_hz, first_sample_index=0,
+                          axes=list(spec.axes), data=[0.0] * (10 * len(spec.axes)))
+        msg.header.stamp.sec = 1_700_000_000
+        for k, v in changes.items():
+            setattr(msg, k, v)
+        return msg
+
+    pub.publish(b"\x00\x01\x00\x00 not a SampleBlock")  # malformed CDR
+    pub.publish(block(unit="furlong"))                  # contradicts the sensor map
+    pub.publish(serialize_message(Imu()))               # bytes of another type
+    pub.publish(block())                                # a good block still counts
+    listener.wait(lambda: listener.ingest_values().get("messages_dropped") == "3"
+                  and listener.ingest_values().get("samples_received") == "10", 15,
+                  "three dropped messages and one good block in the ingest status")
+    assert ingest.popen.poll() is None and ident.popen.poll() is None
+    assert interrupt(ingest) == 0 and interrupt(ident) == 0
+    log = "\n".join(ingest.lines + ingest.popen.stdout.read().splitlines()
+                    if not ingest.popen.stdout.closed else ingest.lines)
+    assert f"{topic}: dropped a message" in log and "furlong" in log
+    node.destroy_publisher(pub)
+
+
+def test_conversions_check_messages_against_the_sensor_map_and_roundtrip_windows(offline):
+    from pier_monitor_msgs.msg import SampleBlock
+    from sensor_msgs.msg import Imu
+
+    from pier_monitor.core.config import load_config
+    from pier_monitor.core.resources import find_config_file
+    from pier_monitor.nodes.conversions import (MessageError, block_arrays, imu_arrays,
+                                                window_from_msg, window_to_msg)
+
+    config = load_config(find_config_file("edefense_like.yaml"))
+    acc = next(s for s in config.sensors if s.kind == "acceleration" and len(s.axes) == 3)
+    msg = SampleBlock(sensor_id=acc.sensor_id, kind=0, unit=acc.unit, sample_rate_hz=200.0,
+                      first_sample_index=40, axes=list(acc.axes), data=[1.0] * 12)
+    msg.header.stamp.sec = 10
+    times, data, index = block_arrays(msg, acc, 200.0, "/p/acc")
+    assert data.shape == (4, 3) and list(index) == [40, 41, 42, 43]
+    assert list(times) == [10_000_000_000 + 5_000_000 * i for i in range(4)]
+    msg.data = [1.0] * 11
+    with pytest.raises(MessageError, match=r"/p/acc: SampleBlock: 11 values"):
+        block_arrays(msg, acc, 200.0, "/p/acc")
+    msg.data, msg.sensor_id = [1.0] * 12, "other"
+    with pytest.raises(MessageError, match=r"sensor_id 'other'"):
+        block_arrays(msg, acc, 200.0, "/p/acc")
+
+    imu = Imu()
+    imu.header.stamp.sec = 3
+    imu.linear_acceleration.x = 0.5
+    if acc.unit in ("m/s^2", "m/s2"):
+        t, d = imu_arrays(imu, acc, "/p/imu")
+        assert t[0] == 3_000_000_000 and d.tolist() == [[0.5, 0.0, 0.0]]
+    wire = next(s for s in config.sensors if s.kind == "displacement")
+    with pytest.raises(MessageError, match="sensor_msgs/Imu"):
+        imu_arrays(imu, wire, "/p/wire")
+
+    window = offline.events[0].window
+    back = window_from_msg(window_to_msg(window, config))
+    assert back.event_id == window.event_id and back.start_time_ns == window.start_time_ns
+    for name in ("ag", "a", "v", "x"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(window, name))
+    np.testing.assert_allclose(back.t, window.t, rtol=0, atol=1e-9)
