@@ -91,6 +91,9 @@ def build_parser() -> argparse.ArgumentParser:
     ident.add_argument("bag", type=Path, metavar="BAG", help="rosbag2 directory or .mcap file")
     ident.add_argument("--out", type=Path, default=None,
                        help="results root (default results/<bag name>)")
+    ident.add_argument("--pier", type=Path, default=None,
+                       help="pier configuration YAML to use instead of the bag's (required for "
+                            "a bag recorded without one)")
     _add_training_options(ident)
 
     demo = sub.add_parser("demo", help="the main job on the embedded synthetic bag",
@@ -127,7 +130,8 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
-def _identify(bag: Path, out: Path, args: argparse.Namespace) -> "BagOutcome":
+def _identify(bag: Path, out: Path, args: argparse.Namespace,
+              pier: Path | None = None) -> "BagOutcome":
     """Run :func:`pier_monitor.pipeline.identify_bag` with a progress bar on stderr."""
     from .pinn import PinnSettings
     from .pipeline import identify_bag
@@ -151,8 +155,13 @@ def _identify(bag: Path, out: Path, args: argparse.Namespace) -> "BagOutcome":
         if p.epoch % 25 == 0:
             bar.set_postfix(loss=f"{p.loss:.3g}", k1_1=f"{p.k1[0]:.4g}")
 
+    config = None
+    if pier is not None:
+        from .core.config import load_config
+
+        config = load_config(pier)
     try:
-        return identify_bag(bag, out, settings=settings, progress=progress)
+        return identify_bag(bag, out, settings=settings, progress=progress, config=config)
     finally:
         for bar in bars.values():
             bar.close()
@@ -183,7 +192,7 @@ def _print_outcome(outcome: "BagOutcome") -> None:
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     out = args.out if args.out is not None else Path("results") / args.bag.name.removesuffix(".mcap")
-    outcome = _identify(args.bag, out, args)
+    outcome = _identify(args.bag, out, args, pier=args.pier)
     _print_outcome(outcome)
     return 0
 

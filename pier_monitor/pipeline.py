@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from .core.config import PierConfig
 from .core.damage import IdentificationResult
 from .core.errors import BagError, ReportError
 from .core.ingest import IngestReport, IngestSettings, ingest_recording
@@ -45,6 +46,7 @@ class BagOutcome:
 
 def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: object | None = None,
                  ingest_settings: IngestSettings | None = None,
+                 config: PierConfig | None = None,
                  progress: Callable[[str, object], None] | None = None) -> BagOutcome:
     """Identify every event of a bag and write one results directory per event.
 
@@ -58,6 +60,9 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: object | Non
     settings : PinnSettings, optional
         Identification settings (default: the benchmarked ones).
     ingest_settings : IngestSettings, optional
+    config : PierConfig, optional
+        Pier configuration to use instead of the one in the bag (needed for a bag recorded
+        without one).
     progress : callable, optional
         ``progress(event_id, Progress)`` after every epoch.
 
@@ -80,7 +85,7 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: object | Non
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise ReportError(f"{out}: cannot create the results directory: {err.strerror}") from err
-    recording = read_bag(bag)
+    recording = read_bag(bag, config=config)
     if not recording.sensors:
         raise BagError(f"{bag}: the bag holds no samples of any sensor of the configuration's "
                        f"map ({len(recording.config.sensors)} sensors listed)")

@@ -52,7 +52,8 @@ def _config_connections(path: Path, connections: list[Any], pier_id: str | None)
         topics = sorted({c.topic for c in connections})
         want = f"/{pier_id}{suffix}" if pier_id is not None else f"/<pier_id>{suffix}"
         raise BagError(f"{path}: no pier configuration in the bag (expected a {STRING} on "
-                       f"{want}); its topics are {topics}")
+                       f"{want}); its topics are {topics}; give the configuration file "
+                       "instead (pier-monitor identify --pier PIER.yaml)")
     topics = sorted({c.topic for c in found})
     if len(topics) > 1:
         raise BagError(f"{path}: configurations of several piers {topics}; choose one with "
@@ -113,7 +114,8 @@ def _block_arrays(path: Path, topic: str, spec: SensorSpec, msg: Any,
     return times, index, data.reshape(n, n_axes), rate
 
 
-def read_bag(path: str | Path, *, pier_id: str | None = None) -> Recording:
+def read_bag(path: str | Path, *, pier_id: str | None = None,
+             config: PierConfig | None = None) -> Recording:
     """Read a bag of the layout :func:`~pier_monitor.bags.writer.write_bag` writes.
 
     Parameters
@@ -122,6 +124,10 @@ def read_bag(path: str | Path, *, pier_id: str | None = None) -> Recording:
         A rosbag2 directory (with ``metadata.yaml``) or a plain ``.mcap`` file.
     pier_id : str, optional
         The pier to read when the bag holds several; default: the only one.
+    config : PierConfig, optional
+        Configuration to use instead of the bag's (for a bag recorded without one, or to
+        correct it); sensor topics are then ``/<config.pier_id>/<sensor topic>`` and the
+        bag's own configuration messages, if any, are ignored.
 
     Returns
     -------
@@ -147,8 +153,11 @@ def read_bag(path: str | Path, *, pier_id: str | None = None) -> Recording:
     try:
         with Reader(path) as reader:
             connections = list(reader.connections)
-            config_conns = _config_connections(path, connections, pier_id)
-            config, topic, updates = _read_config(path, reader, config_conns)
+            if config is None:
+                config_conns = _config_connections(path, connections, pier_id)
+                config, topic, updates = _read_config(path, reader, config_conns)
+            else:
+                topic, updates = f"/{config.pier_id}/{CONFIG_TOPIC_NAME}", []
             namespace = topic[: -len(CONFIG_TOPIC_NAME) - 1]
             by_topic = {f"{namespace}/{s.topic.lstrip('/')}": s for s in config.sensors}
             sensor_conns = []

@@ -98,3 +98,24 @@ def test_command_line_reports_a_missing_bag(tmp_path, capsys):
     rc = main(["identify", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "o")])
     assert rc == 2
     assert "nope.mcap: no such bag" in capsys.readouterr().err
+
+
+def test_bag_without_configuration_needs_one_given(bag, tmp_path, capsys):
+    """A bag recorded without its configuration: a clear error, and it reads with --pier."""
+    from pier_monitor.bags.writer import _messages, write_mcap_messages
+
+    rec = read_bag(bag.bag.path)
+    conns, msgs = _messages(rec, 0.1)
+    keep = [i for i, (topic, _, _) in enumerate(conns) if not topic.endswith("pier_configuration")]
+    remap = {old: new for new, old in enumerate(keep)}
+    bare = tmp_path / "bare.mcap"
+    write_mcap_messages(bare, [conns[i] for i in keep],
+                        [(t, remap[c], d) for t, c, d in msgs if c in remap])
+    with pytest.raises(BagError, match="bare.mcap: no pier configuration in the bag.*--pier"):
+        read_bag(bare)
+    cfg_file = tmp_path / "pier.yaml"
+    cfg_file.write_text(rec.config.to_yaml())
+    rc = main(["identify", str(bare), "--pier", str(cfg_file), "--out", str(tmp_path / "o"),
+               "--max-epochs", "30", "--no-progress"])
+    assert rc == 0
+    assert capsys.readouterr().out.count("overall state") == 2
