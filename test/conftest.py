@@ -78,22 +78,46 @@ class RosProcess:
         self.popen = popen
         self._selector = selectors.DefaultSelector()
         self._selector.register(popen.stdout, selectors.EVENT_READ)
+        self._fd = popen.stdout.fileno()
+        self._pending = b""  # read from the pipe, not yet split into lines
         self.lines: list[str] = []
 
     def wait_for_line(self, expected: str, timeout_s: float) -> str:
         """Read stdout until a line starting with ``expected``; fail after ``timeout_s``."""
         deadline = time.monotonic() + timeout_s
-        while (left := deadline - time.monotonic()) > 0:
-            if not self._selector.select(timeout=left):
-                break
-            line = self.popen.stdout.readline()
-            if not line:  # EOF: the child exited
-                break
-            self.lines.append(line.rstrip("\n"))
+        while (line := self._next_line(deadline)) is not None:
+            self.lines.append(line)
             if line.startswith(expected):
-                return line.rstrip("\n")
+                return line
         pytest.fail(f"child process did not print {expected!r} within {timeout_s} s "
                     f"(exit code {self.popen.poll()}); its output:\n" + "\n".join(self.lines))
+
+    def _next_line(self, deadline: float) -> str | None:
+        """The next line of stdout, or None at EOF / the deadline.
+
+        Reads the pipe's file descriptor directly: a buffered ``readline()`` may pull several
+        lines out of the pipe at once, and ``select()`` would then wait for more output while
+        the line looked for sits in the buffer.
+        """
+        while b"\n" not in self._pending:
+            left = deadline - time.monotonic()
+            if left <= 0 or not self._selector.select(timeout=left):
+                return None
+            chunk = os.read(self._fd, 65536)
+            if not chunk:  # EOF: the child exited
+                if not self._pending:
+                    return None
+                chunk = b"\n"
+            self._pending += chunk
+        line, _, self._pending = self._pending.partition(b"\n")
+        return line.decode(errors="replace")
+
+    def read_rest(self, timeout_s: float = 10.0) -> list[str]:
+        """Read stdout to its end (the child has exited or is exiting); all lines so far."""
+        deadline = time.monotonic() + timeout_s
+        while (line := self._next_line(deadline)) is not None:
+            self.lines.append(line)
+        return self.lines
 
     def stop(self, timeout_s: float = 10.0) -> int:
         """Close stdin (the child's signal to finish), wait, kill if it does not exit."""

@@ -111,12 +111,18 @@ def imu_arrays(msg: Imu, spec: SensorSpec, topic: str) -> tuple[np.ndarray, np.n
     Raises
     ------
     MessageError
-        If the sensor is not a 3-axis m/s² accelerometer in the map.
+        If the sensor is not a 3-axis m/s² accelerometer in the map, or the message says
+        it has no linear acceleration (covariance element 0 is -1). NaN/Inf values pass:
+        the ingest treats them as missing samples, as in a SampleBlock.
     """
     if spec.kind != "acceleration" or list(spec.axes) != ["x", "y", "z"] \
             or spec.unit not in ("m/s^2", "m/s2"):
         raise MessageError(f"{topic}: sensor_msgs/Imu carries x, y, z in m/s^2 but sensor "
                            f"{spec.sensor_id} is {spec.kind} {list(spec.axes)} in {spec.unit!r}")
+    if float(msg.linear_acceleration_covariance[0]) == -1.0:
+        # sensor_msgs/Imu: element 0 of a covariance set to -1 means "no estimate"
+        raise MessageError(f"{topic}: sensor_msgs/Imu without linear acceleration "
+                           "(linear_acceleration_covariance[0] == -1)")
     a = msg.linear_acceleration
     return (np.array([time_to_ns(msg.header.stamp)], dtype=np.int64),
             np.array([[a.x, a.y, a.z]], dtype=np.float64))

@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from pier_monitor_msgs.msg import MainshockWindow, SampleBlock
@@ -40,18 +41,24 @@ from std_msgs.msg import String
 
 from pier_monitor.core.config import PierConfig, config_from_yaml, load_config
 from pier_monitor.core.ingest import StreamIngest
+from pier_monitor.core.recording import NS_PER_S
 from pier_monitor.core.window import MeasuredWindow, save_window
 
 from ._params import declare
 from .conversions import block_arrays, imu_arrays, window_to_msg
 
-__all__ = ["IngestNode", "main", "SENSOR_QOS", "LATCHED_QOS", "WINDOW_QOS"]
+__all__ = ["IngestNode", "main", "SENSOR_QOS", "IMU_QOS", "LATCHED_QOS", "WINDOW_QOS"]
 
 #: Sensor streams: reliable with a deep queue (a 0.1 s block per message and sensor), so that
 #: a short stall of the executor loses nothing.
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                         reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.VOLATILE)
+#: Per-sample Imu streams: best effort, so that the usual sensor-data publishers of IMU
+#: drivers (best effort) connect as well as reliable ones; a lost message shows as a gap.
+IMU_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2000,
+                     reliability=ReliabilityPolicy.BEST_EFFORT,
+                     durability=DurabilityPolicy.VOLATILE)
 #: Latched configuration / results: late subscribers get the latest.
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                          reliability=ReliabilityPolicy.RELIABLE,
@@ -94,6 +101,7 @@ class IngestNode(Node):
         self._subs: list[Any] = []
         self._last_seen: dict[str, float] = {}
         self._next_index: dict[str, int] = {}
+        self._imu_t0: dict[str, int] = {}  # stamp of sample index 0 of each Imu sensor
         self.stats = {"messages_received": 0, "samples_received": 0, "messages_dropped": 0,
                       "gap_samples": 0, "duplicate_samples": 0, "windows_emitted": 0,
                       "queue_backlog": 0}
@@ -157,7 +165,7 @@ class IngestNode(Node):
             self._subs.append(self.create_subscription(
                 msg_type, topic,
                 lambda raw, sid=spec.sensor_id, t=msg_type: self._on_sample(sid, t, raw),
-                SENSOR_QOS, raw=True))
+                IMU_QOS if msg_type is Imu else SENSOR_QOS, raw=True))
         self.get_logger().info(f"pier {config.pier_id}: {len(config.sensors)} sensors from "
                                f"{source}, {len(imu & set(self._specs))} of them Imu")
 
@@ -194,7 +202,10 @@ class IngestNode(Node):
             msg = deserialize_message(raw, msg_type)
             if msg_type is Imu:
                 times, data = imu_arrays(msg, spec, topic)
-                index = None
+                # an Imu carries no sample index: derive it from the stamp (the sensor's
+                # clock), so that a lost message is a gap, not a shift of every later sample
+                t0 = self._imu_t0.setdefault(sid, int(times[0]))
+                index = np.rint((times - t0) * (self._stream.rate / NS_PER_S)).astype(np.int64)
             else:
                 times, data, index = block_arrays(msg, spec, self._stream.rate, topic)
         except Exception as err:

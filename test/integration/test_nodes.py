@@ -314,8 +314,7 @@ def test_bad_parameters_bad_messages_and_failed_training_keep_the_nodes_running(
                   "three dropped messages and one good block in the ingest status")
     assert ingest.popen.poll() is None and ident.popen.poll() is None
     assert interrupt(ingest) == 0 and interrupt(ident) == 0
-    log = "\n".join(ingest.lines + ingest.popen.stdout.read().splitlines()
-                    if not ingest.popen.stdout.closed else ingest.lines)
+    log = "\n".join(ingest.read_rest())
     assert f"{topic}: dropped a message" in log and "furlong" in log
     node.destroy_publisher(pub)
 
@@ -360,3 +359,209 @@ def test_conversions_check_messages_against_the_sensor_map_and_roundtrip_windows
     for name in ("ag", "a", "v", "x"):
         np.testing.assert_array_equal(getattr(back, name), getattr(window, name))
     np.testing.assert_allclose(back.t, window.t, rtol=0, atol=1e-9)
+
+
+def imu_params(path: Path, data: Path, imu_ids: list[str]) -> Path:
+    """ros__parameters of an ingest node whose ``imu_ids`` sensors publish sensor_msgs/Imu."""
+    import yaml
+
+    path.write_text(yaml.safe_dump({"/**/ingest": {"ros__parameters": {
+        "window_dir": str(data / "windows"), "status_period_s": 0.3,
+        "imu_sensor_ids": imu_ids}}}))
+    return path
+
+
+@pytest.mark.timeout(60)
+def test_imu_samples_are_counted_one_per_message_and_bad_imu_messages_dropped(
+        listener, spawn_python, tmp_path):
+    from pier_monitor_msgs.msg import SampleBlock
+    from rclpy.duration import Duration
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import Imu
+    from std_msgs.msg import String
+
+    from pier_monitor.core.config import load_config
+    from pier_monitor.core.resources import find_config_file
+    from pier_monitor.nodes.ingest_node import LATCHED_QOS, SENSOR_QOS
+
+    config = load_config(find_config_file("edefense_like.yaml"))
+    specs = {s.sensor_id: s for s in config.sensors}
+    good, gal = specs["l0_acc_nw"], specs["l0_acc_ne"]  # m/s^2 (Imu-able) and gal (not)
+    assert good.unit == "m/s^2" and gal.unit == "gal" and gal.kind == "acceleration"
+    params = imu_params(tmp_path / "imu.yaml", tmp_path, [good.sensor_id, gal.sensor_id])
+    ingest = start_node(spawn_python, "ingest_node", params)
+
+    node = listener.node
+    config_pub = node.create_publisher(String, f"{NS}/pier_configuration", LATCHED_QOS)
+    config_pub.publish(String(data=config.to_yaml()))
+    pubs = {s.sensor_id: node.create_publisher(Imu, f"{NS}/{s.topic.lstrip('/')}", SENSOR_QOS)
+            for s in (good, gal)}
+    listener.wait(lambda: all(p.get_subscription_count() > 0 for p in pubs.values()), 15,
+                  "the ingest's Imu subscriptions (made once it has the configuration)")
+    time.sleep(0.3)  # let the new reader match the writer completely
+
+    period_ns = round(1e9 / config.sample_rate_hz)
+    t0_ns = 1_700_000_000 * 10**9
+
+    def imu(i: int, sid: str, acc: tuple[float, float, float]) -> Any:
+        msg = Imu()  # one sample, recorded values in the sensor's own axes, m/s^2
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t0_ns + i * period_ns, 10**9)
+        msg.header.frame_id = sid
+        msg.orientation_covariance[0] = -1.0  # no orientation estimate
+        msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = acc
+        return msg
+
+    at_rest = tuple(float(o) for o in good.offsets)  # gravity on z, as the map records it
+    sent = 0
+    for i in range(40):
+        if i == 20:
+            continue  # one sample lost: a gap of one sample, not a shift of the rest
+        pubs[good.sensor_id].publish(imu(i, good.sensor_id, at_rest))
+        sent += 1
+        time.sleep(0.002)
+    pubs[good.sensor_id].publish(imu(40, good.sensor_id, (math.nan, 0.0, 9.8)))  # kept:
+    sent += 1  # the ingest marks NaN/Inf samples missing, as in a SampleBlock
+    no_acc = imu(41, good.sensor_id, at_rest)
+    no_acc.linear_acceleration_covariance[0] = -1.0  # "no linear acceleration estimate"
+    pubs[good.sensor_id].publish(no_acc)
+    pubs[good.sensor_id].publish(serialize_message(SampleBlock()))  # bytes of another type
+    for i in range(2):  # a gal accelerometer cannot carry sensor_msgs/Imu (m/s^2 by definition)
+        pubs[gal.sensor_id].publish(imu(i, gal.sensor_id, (0.0, 0.0, 980.0)))
+    for pub in pubs.values():
+        assert pub.wait_for_all_acked(Duration(seconds=10))
+
+    def counted() -> bool:
+        v = listener.ingest_values()
+        return v.get("samples_received") == str(sent) and v.get("messages_dropped") == "4"
+
+    listener.wait(counted, 15, f"ingest status counting {sent} Imu samples and 4 drops")
+    time.sleep(0.5)  # nothing more arrives later
+    status = listener.ingest_values()
+    assert status["samples_received"] == status["messages_received"] == str(sent) == "40"
+    assert status["messages_dropped"] == "4"
+    assert status["gap_samples"] == "1" and status["duplicate_samples"] == "0"
+    assert status["windows_emitted"] == "0" and status["queue_backlog"] == "0"
+    assert status["last_error"].startswith((f"{NS}/{gal.topic}", f"{NS}/{good.topic}"))
+    assert ingest.popen.poll() is None
+    assert interrupt(ingest) == 0
+    log = "\n".join(ingest.read_rest())
+    assert "2 of them Imu" in log
+    assert "linear_acceleration_covariance[0] == -1" in log
+    assert f"sensor_msgs/Imu carries x, y, z in m/s^2 but sensor {gal.sensor_id}" in log
+    assert "ingest worker:" not in log  # no exception in the worker
+    for pub in (config_pub, *pubs.values()):
+        node.destroy_publisher(pub)
+
+
+def damage_state(event_id: str) -> Any:
+    """A small PierDamageState (two sections, one NaN) for the echo/record scripts."""
+    from pier_monitor_msgs.msg import PierDamageState, SectionState
+
+    msg = PierDamageState(pier_id="edefense_pier", event_id=event_id, overall_state=1,
+                          epochs=12, final_loss=math.nan, wall_time_s=3.5, device="cpu",
+                          message="ok", success=True)
+    msg.header.stamp.sec = 1_700_000_123
+    msg.header.frame_id = "edefense_pier"
+    msg.sections = [SectionState(index=i, k1=1.5e8 * (i + 1), ductility_factor=1.1 + i,
+                                 state=i, k2_identifiable=bool(i)) for i in range(2)]
+    return msg
+
+
+@pytest.mark.timeout(60)
+def test_echo_damage_state_prints_the_latched_state_and_exits_after_count(
+        listener, spawn_python):
+    import json
+
+    from pier_monitor_msgs.msg import PierDamageState
+
+    from pier_monitor.nodes.identifier_node import DAMAGE_STATE_QOS
+
+    script = str(REPO_ROOT / "launch_free_scripts/echo_damage_state.py")
+    pub = listener.node.create_publisher(PierDamageState, f"{NS}/damage_state",
+                                         DAMAGE_STATE_QOS)
+    pub.publish(damage_state("run_old"))
+    pub.publish(damage_state("run_07"))  # depth 1: a late subscriber gets only this one
+    t_start = time.monotonic()
+    echo = spawn_python(RUN_SCRIPT, script, "--count", "1", "--timeout", "20",
+                        "--ros-args", "-r", f"__ns:={NS}")
+    line = echo.wait_for_line("DAMAGE_STATE", 20)
+    assert echo.popen.wait(timeout=10) == 0  # --count 1: exits by itself
+    elapsed = time.monotonic() - t_start
+    got = json.loads(line.split(" ", 1)[1])
+    assert got["event_id"] == "run_07" and got["pier_id"] == "edefense_pier"
+    assert got["header"]["stamp"]["sec"] == 1_700_000_123
+    assert got["final_loss"] is None and got["epochs"] == 12 and got["success"] is True
+    assert [s["k1"] for s in got["sections"]] == [1.5e8, 3.0e8]
+    assert [s["state"] for s in got["sections"]] == [0, 1]
+    assert [s["k2_identifiable"] for s in got["sections"]] == [False, True]
+    assert sum(ln.startswith("DAMAGE_STATE") for ln in echo.lines) == 1
+    assert elapsed < 15
+    echo.stop()
+
+    # nothing on the topic: --timeout ends it with exit code 1
+    empty = spawn_python(RUN_SCRIPT, script, "--count", "1", "--timeout", "1",
+                         "--topic", "no_such_state", "--ros-args", "-r", f"__ns:={NS}")
+    assert empty.popen.wait(timeout=20) == 1
+    empty.stop()
+    listener.node.destroy_publisher(pub)
+
+
+@pytest.mark.timeout(60)
+def test_record_topics_writes_an_mcap_that_decodes_with_mcap_ros2(
+        listener, spawn_python, tmp_path, fields_equal):
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    from pier_monitor_msgs.msg import PierDamageState, SampleBlock
+    from rclpy.duration import Duration
+
+    from pier_monitor.nodes.identifier_node import DAMAGE_STATE_QOS
+    from pier_monitor.nodes.ingest_node import SENSOR_QOS
+
+    node = listener.node
+    state_pub = node.create_publisher(PierDamageState, f"{NS}/damage_state", DAMAGE_STATE_QOS)
+    state = damage_state("run_03")
+    state_pub.publish(state)  # before the recorder starts: latched, still recorded
+    block_topic = f"{NS}/sensors/level0/acc_nw"
+    block_pub = node.create_publisher(SampleBlock, block_topic, SENSOR_QOS)
+    out = tmp_path / "rec.mcap"
+    rec = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/record_topics.py"),
+                       str(out), "damage_state", "sensors/level0/acc_nw", "--duration", "6",
+                       "--ros-args", "-r", f"__ns:={NS}")
+    seen = {rec.wait_for_line("RECORDING", 15), rec.wait_for_line("RECORDING", 5)}
+    assert {s.split()[1] for s in seen} == {f"{NS}/damage_state", block_topic}
+    listener.wait(lambda: block_pub.get_subscription_count() > 0, 10, "the recorder")
+    time.sleep(0.3)
+    blocks = []
+    for k in range(25):
+        msg = SampleBlock(sensor_id="l0_acc_nw", kind=0, unit="m/s^2", sample_rate_hz=200.0,
+                          first_sample_index=20 * k, axes=["x", "y", "z"],
+                          data=[float(k), 0.5, 9.81] * 20)
+        msg.header.stamp.sec = 1_700_000_000 + k // 10
+        msg.header.stamp.nanosec = (k % 10) * 100_000_000
+        msg.header.frame_id = "l0_acc_nw"
+        block_pub.publish(msg)
+        blocks.append(msg)
+        time.sleep(0.01)
+    assert block_pub.wait_for_all_acked(Duration(seconds=10))
+    done = rec.wait_for_line("RECORDED", 20)
+    assert rec.popen.wait(timeout=10) == 0
+    assert done == "RECORDED 26 messages"
+    rec.stop()
+
+    decoded: dict[str, list[Any]] = {}
+    with out.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        assert reader.get_header().profile == "ros2"
+        for schema, channel, message, ros_msg in reader.iter_decoded_messages():
+            assert channel.message_encoding == "cdr" and schema.encoding == "ros2msg"
+            decoded.setdefault(channel.topic, []).append((schema.name, ros_msg))
+    assert {t: len(v) for t, v in decoded.items()} == {f"{NS}/damage_state": 1,
+                                                       block_topic: 25}
+    (name, got), = decoded[f"{NS}/damage_state"]
+    assert name == "pier_monitor_msgs/msg/PierDamageState"
+    fields_equal(state, got)
+    assert [n for n, _ in decoded[block_topic]] == ["pier_monitor_msgs/msg/SampleBlock"] * 25
+    for want, (_, got) in zip(blocks, decoded[block_topic]):
+        fields_equal(want, got)
+    node.destroy_publisher(state_pub)
+    node.destroy_publisher(block_pub)
