@@ -22,11 +22,11 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.core.config import PierConfig, SensorSpec, config_from_yaml
-from pier_monitor.core.errors import PierMonitorError
+from pier_monitor.core.errors import InputDataError, PierMonitorError
 from pier_monitor.core.recording import NS_PER_S, Recording, SensorRecord
 
 from .errors import BagError
-from .types import KIND_NAMES, SAMPLE_BLOCK, STRING, get_typestore
+from .types import SAMPLE_BLOCK, STRING, get_typestore, sample_block_arrays
 from .writer import CONFIG_TOPIC_NAME
 
 __all__ = ["read_bag", "read_bag_config"]
@@ -85,33 +85,10 @@ def _read_config(path: Path, reader: Any, conns: list[Any]
 
 def _block_arrays(path: Path, topic: str, spec: SensorSpec, msg: Any,
                   log_ns: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    where = f"{path}: {topic} at {log_ns} ns"
-    if msg.sensor_id != spec.sensor_id:
-        raise BagError(f"{where}: block of sensor {msg.sensor_id!r} on the topic of sensor "
-                       f"{spec.sensor_id!r}")
-    kind = KIND_NAMES.get(int(msg.kind))
-    if kind != spec.kind:
-        raise BagError(f"{where}: block kind {msg.kind} ({kind or 'unknown'}) but the "
-                       f"configuration says {spec.kind}")
-    if msg.unit != spec.unit:
-        raise BagError(f"{where}: block unit {msg.unit!r} but the configuration says "
-                       f"{spec.unit!r}")
-    if list(msg.axes) != list(spec.axes):
-        raise BagError(f"{where}: block axes {list(msg.axes)} but the configuration says "
-                       f"{list(spec.axes)}")
-    rate = float(msg.sample_rate_hz)
-    if not (np.isfinite(rate) and rate > 0):
-        raise BagError(f"{where}: invalid sample_rate_hz {rate}")
-    data = np.asarray(msg.data, dtype=np.float64)
-    n_axes = len(spec.axes)
-    if data.size % n_axes:
-        raise BagError(f"{where}: {data.size} values are not a whole number of samples of "
-                       f"{n_axes} axes")
-    n = data.size // n_axes
-    stamp_ns = int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
-    times = stamp_ns + np.rint(np.arange(n) * (NS_PER_S / rate)).astype(np.int64)
-    index = int(msg.first_sample_index) + np.arange(n, dtype=np.int64)
-    return times, index, data.reshape(n, n_axes), rate
+    try:
+        return sample_block_arrays(msg, spec, f"{path}: {topic} at {log_ns} ns")
+    except InputDataError as err:
+        raise BagError(str(err)) from err
 
 
 def read_bag(path: str | Path, *, pier_id: str | None = None,

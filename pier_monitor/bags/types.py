@@ -9,15 +9,21 @@ the repository's ``msg_defs/msg``.
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.recording import NS_PER_S
 from pier_monitor.core.resources import find_share_path
 
 from .errors import BagError
 
 if TYPE_CHECKING:
+    from pier_monitor.core.config import SensorSpec
     from rosbags.typesys.store import Typestore
 
 __all__ = [
@@ -26,6 +32,7 @@ __all__ = [
     "STRING",
     "KIND_CODES",
     "KIND_NAMES",
+    "sample_block_arrays",
     "find_msg_dir",
     "get_typestore",
     "message_definition",
@@ -40,6 +47,50 @@ STRING = "std_msgs/msg/String"
 #: SampleBlock.kind code of each sensor kind of the pier configuration.
 KIND_CODES = {"acceleration": 0, "displacement": 1, "velocity": 2}
 KIND_NAMES = {code: name for name, code in KIND_CODES.items()}
+
+
+def sample_block_arrays(msg: Any, spec: SensorSpec, where: str, rate_hz: float | None = None
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """``(time_ns (T,), sample_index (T,), data (T, n_axes), rate_hz)`` of a SampleBlock.
+
+    ``msg`` is a decoded ``pier_monitor_msgs/msg/SampleBlock`` (rosbags or rclpy: the same
+    fields).  The block must match the sensor map: sensor id, kind, unit, axes, a positive
+    rate (equal to ``rate_hz`` when given) and whole samples.
+
+    Raises
+    ------
+    InputDataError
+        Naming ``where`` and the field that contradicts the map.
+    """
+    if msg.sensor_id != spec.sensor_id:
+        raise InputDataError(f"{where}: block of sensor {msg.sensor_id!r} on the topic of "
+                             f"sensor {spec.sensor_id!r}")
+    kind = KIND_NAMES.get(int(msg.kind))
+    if kind != spec.kind:
+        raise InputDataError(f"{where}: block kind {msg.kind} ({kind or 'unknown'}) but the "
+                             f"configuration says {spec.kind}")
+    if msg.unit != spec.unit:
+        raise InputDataError(f"{where}: block unit {msg.unit!r} but the configuration says "
+                             f"{spec.unit!r}")
+    if list(msg.axes) != list(spec.axes):
+        raise InputDataError(f"{where}: block axes {list(msg.axes)} but the configuration "
+                             f"says {list(spec.axes)}")
+    rate = float(msg.sample_rate_hz)
+    if not (math.isfinite(rate) and rate > 0):
+        raise InputDataError(f"{where}: invalid sample_rate_hz {rate}")
+    if rate_hz is not None and abs(rate - rate_hz) > 1e-6 * rate_hz:
+        raise InputDataError(f"{where}: sample_rate_hz {rate:g} but the configuration says "
+                             f"{rate_hz:g}")
+    data = np.asarray(msg.data, dtype=np.float64)
+    n_axes = len(spec.axes)
+    if data.size % n_axes:
+        raise InputDataError(f"{where}: {data.size} values are not a whole number of samples "
+                             f"of {n_axes} axes")
+    n = data.size // n_axes
+    stamp_ns = int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
+    times = stamp_ns + np.rint(np.arange(n) * (NS_PER_S / rate)).astype(np.int64)
+    index = int(msg.first_sample_index) + np.arange(n, dtype=np.int64)
+    return times, index, data.reshape(n, n_axes), rate
 
 
 def find_msg_dir() -> Path:

@@ -18,7 +18,7 @@ from pier_monitor_msgs.msg import (IdentificationProgress, MainshockWindow, Pier
                                    SampleBlock, SectionState)
 from sensor_msgs.msg import Imu
 
-from pier_monitor.bags.types import KIND_CODES, KIND_NAMES
+from pier_monitor.bags.types import sample_block_arrays
 from pier_monitor.core.config import PierConfig, SensorSpec, config_from_yaml
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.recording import NS_PER_S
@@ -76,33 +76,11 @@ def block_arrays(msg: SampleBlock, spec: SensorSpec, rate_hz: float, topic: str
         When the block contradicts the sensor map (sensor id, kind, unit, axes, rate) or its
         data are not whole samples.
     """
-    where = f"{topic}: SampleBlock"
-    if msg.sensor_id != spec.sensor_id:
-        raise MessageError(f"{where}: sensor_id {msg.sensor_id!r} but the topic is sensor "
-                           f"{spec.sensor_id!r}")
-    if int(msg.kind) != KIND_CODES[spec.kind]:
-        raise MessageError(f"{where}: kind {msg.kind} ({KIND_NAMES.get(int(msg.kind), '?')}) "
-                           f"but sensor {spec.sensor_id} is {spec.kind}")
-    if msg.unit != spec.unit:
-        raise MessageError(f"{where}: unit {msg.unit!r} but sensor {spec.sensor_id} is "
-                           f"recorded in {spec.unit!r}")
-    if list(msg.axes) != list(spec.axes):
-        raise MessageError(f"{where}: axes {list(msg.axes)} but sensor {spec.sensor_id} has "
-                           f"{list(spec.axes)}")
-    rate = float(msg.sample_rate_hz)
-    if not (math.isfinite(rate) and abs(rate - rate_hz) <= 1e-6 * rate_hz):
-        raise MessageError(f"{where}: sample_rate_hz {rate:g} but the configuration says "
-                           f"{rate_hz:g}")
-    data = np.asarray(msg.data, dtype=np.float64)
-    n_axes = len(spec.axes)
-    if data.size % n_axes:
-        raise MessageError(f"{where}: {data.size} values are not a whole number of samples "
-                           f"of {n_axes} axes")
-    n = data.size // n_axes
-    t0 = time_to_ns(msg.header.stamp)
-    times = t0 + np.rint(np.arange(n) * (NS_PER_S / rate)).astype(np.int64)
-    index = int(msg.first_sample_index) + np.arange(n, dtype=np.int64)
-    return times, data.reshape(n, n_axes), index
+    try:
+        times, index, data, _ = sample_block_arrays(msg, spec, f"{topic}: SampleBlock", rate_hz)
+    except InputDataError as err:
+        raise MessageError(str(err)) from err
+    return times, data, index
 
 
 def imu_arrays(msg: Imu, spec: SensorSpec, topic: str) -> tuple[np.ndarray, np.ndarray]:

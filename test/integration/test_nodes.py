@@ -340,7 +340,7 @@ def test_conversions_check_messages_against_the_sensor_map_and_roundtrip_windows
     with pytest.raises(MessageError, match=r"/p/acc: SampleBlock: 11 values"):
         block_arrays(msg, acc, 200.0, "/p/acc")
     msg.data, msg.sensor_id = [1.0] * 12, "other"
-    with pytest.raises(MessageError, match=r"sensor_id 'other'"):
+    with pytest.raises(MessageError, match=r"block of sensor 'other' on the topic of sensor"):
         block_arrays(msg, acc, 200.0, "/p/acc")
 
     imu = Imu()
