@@ -40,6 +40,10 @@ class FusedMotion:
         Their posterior standard deviations.
     q : ndarray, shape (C,)
         Estimated extra process-noise density per channel, (m/s²)²·s.
+    dx_sigma, dv_sigma : ndarray, shape (T, C)
+        Standard deviations of the increments from sample k to k+1 (last row repeated).
+        The smoothed errors are correlated in time, so these are far below
+        ``√2 x_sigma``: what matters for quantities built from increments.
     """
 
     x: np.ndarray
@@ -47,11 +51,17 @@ class FusedMotion:
     x_sigma: np.ndarray
     v_sigma: np.ndarray
     q: np.ndarray
+    dx_sigma: np.ndarray
+    dv_sigma: np.ndarray
 
 
 @jit
 def _kalman_rts(a, z, h, sigma_a, sigma_x, q, smooth):  # pragma: no cover - compiled
-    """One channel.  Returns (log-likelihood, x, v, var_x, var_v)."""
+    """One channel.  Returns (log-likelihood, x, v, var_x, var_v, var_dx, var_dv).
+
+    ``var_dx[k]``, ``var_dv[k]``: variance of the smoothed increment from sample k to k+1
+    (from the lag-one smoothed cross-covariance ``P_{k+1|N} G_kᵀ``); last entry repeated.
+    """
     n = a.shape[0]
     f00, f01, f10, f11 = 1.0, h, 0.0, 1.0
     # process noise: accelerometer noise through the input weights, plus white acceleration q
@@ -75,6 +85,8 @@ def _kalman_rts(a, z, h, sigma_a, sigma_x, q, smooth):  # pragma: no cover - com
     x, v = z[0], 0.0
     c00, c01, c11 = r, 0.0, 1.0
     loglik = 0.0
+    vdx = np.zeros(n)
+    vdv = np.zeros(n)
     for k in range(n):
         if k > 0:
             xp = x + h * v + g0a * a[k - 1] + g0b * a[k]
@@ -123,7 +135,14 @@ def _kalman_rts(a, z, h, sigma_a, sigma_x, q, smooth):  # pragma: no cover - com
             n01 = p01[k] + g00 * g10 * e00 + (g00 * g11 + g01 * g10) * e01 + g01 * g11 * e11
             n11 = p11[k] + g10 * g10 * e00 + 2.0 * g10 * g11 * e01 + g11 * g11 * e11
             p00[k], p01[k], p11[k] = n00, n01, n11
-    return loglik, mx, mv, p00, p11
+            # cross-covariance of the smoothed states k+1 and k: P_{k+1|N} G_kᵀ
+            c00 = p00[k + 1] * g00 + p01[k + 1] * g01
+            c11 = p01[k + 1] * g10 + p11[k + 1] * g11
+            vdx[k] = max(p00[k] + p00[k + 1] - 2.0 * c00, 0.0)
+            vdv[k] = max(p11[k] + p11[k + 1] - 2.0 * c11, 0.0)
+        vdx[n - 1] = vdx[n - 2]
+        vdv[n - 1] = vdv[n - 2]
+    return loglik, mx, mv, p00, p11, vdx, vdv
 
 
 def fuse_acceleration_displacement(acc: np.ndarray, disp: np.ndarray, rate_hz: float,
@@ -164,7 +183,7 @@ def fuse_acceleration_displacement(acc: np.ndarray, disp: np.ndarray, rate_hz: f
         raise InputDataError("sigma_acc and sigma_disp must be positive")
     grid = np.geomspace(1e-10, 1e-1, 19) if q_grid is None else np.asarray(q_grid, dtype=float)
     h = 1.0 / rate_hz
-    out = {k: np.empty_like(acc) for k in ("x", "v", "vx", "vv")}
+    out = {k: np.empty_like(acc) for k in ("x", "v", "vx", "vv", "vdx", "vdv")}
     q_best = np.empty(n_ch)
     for c in range(n_ch):
         a_c, z_c = np.ascontiguousarray(acc[:, c]), np.ascontiguousarray(disp[:, c])
@@ -175,8 +194,10 @@ def fuse_acceleration_displacement(acc: np.ndarray, disp: np.ndarray, rate_hz: f
         fine = np.geomspace(lo, hi, 9)
         q = max(((_kalman_rts(a_c, z_c, h, sig_a[c], sig_x[c], qq, False)[0], qq) for qq in fine),
                 key=lambda t: t[0])[1]
-        _, x, v, vx, vv = _kalman_rts(a_c, z_c, h, sig_a[c], sig_x[c], q, True)
-        out["x"][:, c], out["v"][:, c], out["vx"][:, c], out["vv"][:, c] = x, v, vx, vv
+        _, x, v, vx, vv, vdx, vdv = _kalman_rts(a_c, z_c, h, sig_a[c], sig_x[c], q, True)
+        for key, arr in (("x", x), ("v", v), ("vx", vx), ("vv", vv), ("vdx", vdx), ("vdv", vdv)):
+            out[key][:, c] = arr
         q_best[c] = q
     return FusedMotion(x=out["x"], v=out["v"], x_sigma=np.sqrt(np.maximum(out["vx"], 0.0)),
-                       v_sigma=np.sqrt(np.maximum(out["vv"], 0.0)), q=q_best)
+                       v_sigma=np.sqrt(np.maximum(out["vv"], 0.0)), q=q_best,
+                       dx_sigma=np.sqrt(out["vdx"]), dv_sigma=np.sqrt(out["vdv"]))

@@ -512,7 +512,10 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
         design=config.design, t=t, ag=dec["ag"][:m], a=dec["a"][:m], v=dec["v"][:m],
         x=dec["x"][:m], moments=None,
         sigma={"ag": float(_noise_si(config, "acceleration", 0)), "a": sig_a,
-               "v": fused.v_sigma[inner].mean(axis=0), "x": fused.x_sigma[inner].mean(axis=0)},
+               "v": fused.v_sigma[inner].mean(axis=0), "x": fused.x_sigma[inner].mean(axis=0),
+               # increments over one output step (factor sensor steps)
+               "dx": np.sqrt(factor * np.mean(fused.dx_sigma[inner] ** 2, axis=0)),
+               "dv": np.sqrt(factor * np.mean(fused.dv_sigma[inner] ** 2, axis=0))},
         start_time_ns=start_ns,
         report={"principal_direction_deg": direction, "fusion_q": fused.q.tolist(),
                 "velocity_meter_check": checks, "channels": counts})

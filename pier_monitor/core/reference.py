@@ -113,6 +113,8 @@ def realistic_case_window(*, seed: int = 0, acc_noise_mps2: float = 1e-3,
         design=truth.scaled(k1=0.5, k2=0.5, fy=0.1, c=0.5), t=padded.t[sel], ag=ag_meas[sel],
         a=a_meas[sel], v=fused.v[sel], x=fused.x[sel], moments=None,
         sigma={"ag": acc_noise_mps2, "a": np.full(geometry.n_levels, acc_noise_mps2),
-               "v": fused.v_sigma[sel].mean(axis=0), "x": fused.x_sigma[sel].mean(axis=0)},
+               "v": fused.v_sigma[sel].mean(axis=0), "x": fused.x_sigma[sel].mean(axis=0),
+               "dx": np.sqrt(step * np.mean(fused.dx_sigma[sel] ** 2, axis=0)),
+               "dv": np.sqrt(step * np.mean(fused.dv_sigma[sel] ** 2, axis=0))},
         report={"fusion_q": fused.q.tolist()})
     return window, truth, truth_resp

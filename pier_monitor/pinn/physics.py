@@ -89,23 +89,25 @@ class Physics:
         return p.f1 - torch.minimum(torch.maximum(trial, k2 * th1 - s), k2 * th1 + s)
 
     def hysteresis_variance(self, p: PairTensors, k1: torch.Tensor, k2: torch.Tensor,
-                            fy: torch.Tensor, var_f: torch.Tensor, var_theta: torch.Tensor,
+                            fy: torch.Tensor, var_df: torch.Tensor, var_dtheta: torch.Tensor,
+                            var_f: torch.Tensor, var_theta: torch.Tensor,
                             floor: torch.Tensor) -> torch.Tensor:
         """Variance of the hysteresis residual from the noise of ``f`` and ``θ``, (N·m)².
 
-        Elastic pair: ``2 σ_f² + 2 k1² σ_θ²`` (both ends carry noise); pair ending on a
+        Elastic pair (the residual is an increment): ``σ_Δf² + k1² σ_Δθ²``; pair ending on a
         yield line: ``σ_f² + k2² σ_θ²``; plus ``floor²``, the residual the 100 Hz sampling
-        leaves on exact data.  Dividing the residual by its standard deviation makes the
-        fit of ``k1`` an errors-in-variables (Deming) fit: without it, noise on the angle
-        increments biases ``k1`` low, most on lightly loaded springs.  ``var_f``,
-        ``var_theta`` and ``floor`` have shape (N,).
+        leaves on exact data.  For white noise ``σ_Δ² = 2 σ²``; smoothed data have
+        correlated errors and much smaller increment noise.  Dividing the residual by its
+        standard deviation makes the fit of ``k1`` an errors-in-variables (Deming) fit:
+        without it, noise on the angle increments biases ``k1`` low, most on lightly loaded
+        springs.  All variances and ``floor`` have shape (N,).
         """
         th0, th1 = self.angles(p.x0), self.angles(p.x1)
         k1, k2, fy = k1.unsqueeze(-2), k2.unsqueeze(-2), fy.unsqueeze(-2)
         s = fy * (1.0 - k2 / k1)
         trial = p.f0 + k1 * (th1 - th0)
         elastic = (trial > k2 * th1 - s) & (trial < k2 * th1 + s)
-        var_el = 2.0 * var_f + 2.0 * k1 ** 2 * var_theta
+        var_el = var_df + k1 ** 2 * var_dtheta
         var_y = var_f + k2 ** 2 * var_theta
         return torch.where(elastic, var_el, var_y) + floor ** 2
 

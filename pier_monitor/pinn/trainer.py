@@ -229,24 +229,29 @@ class _Problem:
             default = 1e-3 * (self.scale[q] if q != "f" else float(self.scale["f"].max()))
             val = np.full(n, default) if s is None else np.broadcast_to(np.asarray(s, float), (n,))
             self.noise[q] = tt(np.maximum(val, 1e-9 * (default / 1e-3)))
-        # noise of the angles and moments, for the errors-in-variables weighting
-        var_x = np.broadcast_to(np.asarray(self.noise["x"].cpu().numpy()), (n,)) ** 2
+        # noise of the angles and moments and of their increments, for the
+        # errors-in-variables weighting; increments of smoothed data (sigma "dx", "dv")
+        # are far less noisy than twice the level noise
+        var_x = self.noise["x"].cpu().numpy() ** 2
         var_theta = (b ** 2) @ var_x
+        var_dtheta = (b ** 2) @ _sigma2(sig, "dx", 2.0 * var_x, n)
         if self.measured_f:
             var_f = self.noise["f"].cpu().numpy() ** 2
-        else:  # eq. 27 from noisy accelerations and velocities
+            var_df = 2.0 * var_f
+        else:  # eq. 27 from noisy accelerations (white) and velocities
             bt_inv = np.linalg.inv(b.T)
             m = window.geometry.masses_kg
             var_a = self.noise["a"].cpu().numpy() ** 2
             var_ag = float(np.asarray(sig.get("ag", np.sqrt(var_a.mean())))) ** 2
             var_v = self.noise["v"].cpu().numpy() ** 2
-            var_f = ((bt_inv ** 2) @ (m ** 2 * var_a) + (bt_inv @ m) ** 2 * var_ag
-                     + init.c ** 2 * ((b ** 2) @ var_v))
-        self.var_theta = tt(var_theta)
-        self.var_f = tt(var_f)
-        self.hyst_floor = tt(1e-4 * np.abs(f_ref).max(axis=0))
-        self.var_ref = tt(2.0 * var_f + 2.0 * init.k1 ** 2 * var_theta
-                          + (1e-4 * np.abs(f_ref).max(axis=0)) ** 2)
+            var_inertia = (bt_inv ** 2) @ (m ** 2 * var_a) + (bt_inv @ m) ** 2 * var_ag
+            var_f = var_inertia + init.c ** 2 * ((b ** 2) @ var_v)
+            var_df = 2.0 * var_inertia + init.c ** 2 * ((b ** 2) @ _sigma2(sig, "dv", 2.0 * var_v, n))
+        floor = 1e-4 * np.abs(f_ref).max(axis=0)
+        self.var_theta, self.var_f = tt(var_theta), tt(var_f)
+        self.var_dtheta, self.var_df = tt(var_dtheta), tt(var_df)
+        self.hyst_floor = tt(floor)
+        self.var_ref = tt(var_df + init.k1 ** 2 * var_dtheta + floor ** 2)
 
     def outputs(self, net: ResponseNet, c: torch.Tensor, tau: torch.Tensor,
                 idx0: np.ndarray | None) -> tuple[PairTensors, dict[str, torch.Tensor]]:
@@ -298,14 +303,23 @@ class _Problem:
             # residual over its own standard deviation (relative to the one at the start, so
             # the term keeps the paper's scale): an errors-in-variables fit of the springs
             "hysteresis": ms(ph.hysteresis(p, k1, k2, fy) / sc["f"] * torch.sqrt(
-                self.var_ref / ph.hysteresis_variance(p, k1, k2, fy, self.var_f,
-                                                      self.var_theta, self.hyst_floor))),
+                self.var_ref / ph.hysteresis_variance(p, k1, k2, fy, self.var_df, self.var_dtheta,
+                                                      self.var_f, self.var_theta,
+                                                      self.hyst_floor))),
         }
 
     def total(self, terms: dict[str, torch.Tensor]) -> torch.Tensor:
         s = self.settings
         physics = sum(s.term_weights.get(k, 1.0) * terms[k] for k in TERMS[1:])
         return s.data_weight * terms["data"] + s.physics_weight * physics
+
+
+def _sigma2(sigma: dict[str, Any], key: str, default: np.ndarray, n: int) -> np.ndarray:
+    """Variance per level from ``sigma[key]`` (scalar or (N,)), else ``default``."""
+    value = sigma.get(key)
+    if value is None:
+        return default
+    return np.broadcast_to(np.asarray(value, dtype=float), (n,)) ** 2
 
 
 def _params_from_log(logp: torch.Tensor, ref: torch.Tensor) -> tuple[torch.Tensor, ...]:
