@@ -76,23 +76,30 @@ class Physics:
         dt = self.dt
         return p.x1 - p.x0 - dt * p.v0 - dt * dt / 3.0 * p.a0 - dt * dt / 6.0 * p.a1
 
+    def _hysteresis_parts(self, p: PairTensors, k1: torch.Tensor, k2: torch.Tensor,
+                          fy: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The residual and the mask of pairs that end inside the elastic range."""
+        th0, th1 = self.angles(p.x0), self.angles(p.x1)
+        k1, k2, fy = k1.unsqueeze(-2), k2.unsqueeze(-2), fy.unsqueeze(-2)
+        s = fy * (1.0 - k2 / k1)
+        trial = p.f0 + k1 * (th1 - th0)
+        lo, hi = k2 * th1 - s, k2 * th1 + s
+        return p.f1 - torch.minimum(torch.maximum(trial, lo), hi), (trial > lo) & (trial < hi)
+
     def hysteresis(self, p: PairTensors, k1: torch.Tensor, k2: torch.Tensor,
                    fy: torch.Tensor) -> torch.Tensor:
         """Incremental bilinear residual (SPEC §3), N·m; shape (..., P, N).
 
         ``f1 − clip(f0 + k1 (θ1 − θ0), k2 θ1 − s, k2 θ1 + s)``, ``s = fy (1 − k2/k1)``.
         """
-        th0, th1 = self.angles(p.x0), self.angles(p.x1)
-        k1, k2, fy = k1.unsqueeze(-2), k2.unsqueeze(-2), fy.unsqueeze(-2)
-        s = fy * (1.0 - k2 / k1)
-        trial = p.f0 + k1 * (th1 - th0)
-        return p.f1 - torch.minimum(torch.maximum(trial, k2 * th1 - s), k2 * th1 + s)
+        return self._hysteresis_parts(p, k1, k2, fy)[0]
 
-    def hysteresis_variance(self, p: PairTensors, k1: torch.Tensor, k2: torch.Tensor,
-                            fy: torch.Tensor, var_df: torch.Tensor, var_dtheta: torch.Tensor,
-                            var_f: torch.Tensor, var_theta: torch.Tensor,
-                            floor: torch.Tensor) -> torch.Tensor:
-        """Variance of the hysteresis residual from the noise of ``f`` and ``θ``, (N·m)².
+    def hysteresis_with_variance(self, p: PairTensors, k1: torch.Tensor, k2: torch.Tensor,
+                                 fy: torch.Tensor, var_df: torch.Tensor,
+                                 var_dtheta: torch.Tensor, var_f: torch.Tensor,
+                                 var_theta: torch.Tensor, floor: torch.Tensor
+                                 ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The hysteresis residual and its variance from the noise of ``f`` and ``θ``, (N·m)².
 
         Elastic pair (the residual is an increment): ``σ_Δf² + k1² σ_Δθ²``; pair ending on a
         yield line: ``σ_f² + k2² σ_θ²``; plus ``floor²``, the residual the 100 Hz sampling
@@ -102,14 +109,10 @@ class Physics:
         without it, noise on the angle increments biases ``k1`` low, most on lightly loaded
         springs.  All variances and ``floor`` have shape (N,).
         """
-        th0, th1 = self.angles(p.x0), self.angles(p.x1)
-        k1, k2, fy = k1.unsqueeze(-2), k2.unsqueeze(-2), fy.unsqueeze(-2)
-        s = fy * (1.0 - k2 / k1)
-        trial = p.f0 + k1 * (th1 - th0)
-        elastic = (trial > k2 * th1 - s) & (trial < k2 * th1 + s)
-        var_el = var_df + k1 ** 2 * var_dtheta
-        var_y = var_f + k2 ** 2 * var_theta
-        return torch.where(elastic, var_el, var_y) + floor ** 2
+        residual, elastic = self._hysteresis_parts(p, k1, k2, fy)
+        var_el = var_df + k1.unsqueeze(-2) ** 2 * var_dtheta
+        var_y = var_f + k2.unsqueeze(-2) ** 2 * var_theta
+        return residual, torch.where(elastic, var_el, var_y) + floor ** 2
 
     def estimated_moments(self, a: torch.Tensor, v: torch.Tensor, ag: torch.Tensor,
                           c: torch.Tensor) -> torch.Tensor:

@@ -294,18 +294,17 @@ class _Problem:
         ph = self.phys
         eom = 0.5 * (ms(ph.eom(p.a0, p.v0, p.f0, tg["ag0"], c) / self.scale_eom)
                      + ms(ph.eom(p.a1, p.v1, p.f1, tg["ag1"], c) / self.scale_eom))
+        # hysteresis residual over its own standard deviation (relative to the one at the
+        # start, so the term keeps the paper's scale): an errors-in-variables fit of springs
+        hyst, var = ph.hysteresis_with_variance(p, k1, k2, fy, self.var_df, self.var_dtheta,
+                                                self.var_f, self.var_theta, self.hyst_floor)
         return {
             "data": data / 8.0,
             "eom": eom,
             "newmark_a": ms(ph.newmark_acceleration(p, tg["ag1"], c) / sc["a"]),
             "newmark_v": ms(ph.newmark_velocity(p) / sc["v"]),
             "newmark_x": ms(ph.newmark_displacement(p) / sc["x"]),
-            # residual over its own standard deviation (relative to the one at the start, so
-            # the term keeps the paper's scale): an errors-in-variables fit of the springs
-            "hysteresis": ms(ph.hysteresis(p, k1, k2, fy) / sc["f"] * torch.sqrt(
-                self.var_ref / ph.hysteresis_variance(p, k1, k2, fy, self.var_df, self.var_dtheta,
-                                                      self.var_f, self.var_theta,
-                                                      self.hyst_floor))),
+            "hysteresis": ms(hyst / sc["f"] * torch.sqrt(self.var_ref / var)),
         }
 
     def total(self, terms: dict[str, torch.Tensor]) -> torch.Tensor:
