@@ -23,7 +23,7 @@ import numpy as np
 
 from pier_monitor.core.config import PierConfig, SensorSpec, config_from_yaml
 from pier_monitor.core.errors import InputDataError, PierMonitorError
-from pier_monitor.core.recording import NS_PER_S, Recording, SensorRecord
+from pier_monitor.core.recording import Recording, SensorRecord
 
 from .errors import BagError
 from .types import SAMPLE_BLOCK, STRING, get_typestore, sample_block_arrays

@@ -199,7 +199,7 @@ def yield_test(theta: np.ndarray, f: np.ndarray, k1: float, k2: float, fy: float
 
 def _fit_one(theta: np.ndarray, g: np.ndarray, theta_dot: np.ndarray, f_meas: np.ndarray | None,
              init: tuple[float, float, float, float], yield_score: float) -> SpringFit:
-    k1_0, k2_0, fy_0, c_0 = init
+    k1_0, k2_0 = init[0], init[1]  # the design fy, c are not needed: the data give them
     if f_meas is not None:
         # c from f + c θ̇ = g (linear), k1 from elastic increments of the measured moments
         c = float(np.clip(np.dot(theta_dot, g - f_meas) / max(np.dot(theta_dot, theta_dot),

@@ -63,7 +63,6 @@ def _kalman_rts(a, z, h, sigma_a, sigma_x, q, smooth):  # pragma: no cover - com
     (from the lag-one smoothed cross-covariance ``P_{k+1|N} G_kᵀ``); last entry repeated.
     """
     n = a.shape[0]
-    f00, f01, f10, f11 = 1.0, h, 0.0, 1.0
     # process noise: accelerometer noise through the input weights, plus white acceleration q
     g0a, g0b, g1a, g1b = h * h / 3.0, h * h / 6.0, 0.5 * h, 0.5 * h
     sa2 = sigma_a * sigma_a

@@ -665,7 +665,9 @@ class StreamIngest:
         if not ready:
             return []
         windows, report = ingest_recording(self._recording(), s)
-        self.report.events.extend(report.events)
+        # each ingest reports on the whole buffer: keep every finding once
+        seen = set(self.report.events)
+        self.report.events.extend(e for e in report.events if e not in seen)
         self.report.checks.update(report.checks)
         out = []
         for w in windows:

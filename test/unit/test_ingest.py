@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from pier_monitor.core.config import PierConfig
 from pier_monitor.core.ingest import IngestError, StreamIngest, ingest_recording
 from pier_monitor.core.recording import Recording, SensorRecord
 from pier_monitor.core.resources import find_config_file
@@ -124,11 +123,6 @@ def test_no_event_is_a_normal_result(synthetic):
     assert "no_event" in report.codes()
 
 
-def _first_window_x(rec):
-    windows, report = ingest_recording(rec)
-    return windows, report
-
-
 def test_nan_samples_and_short_gaps_are_interpolated_and_reported(synthetic, ingested):
     rec = synthetic.recording
     sid = "l2_acc_n"
@@ -224,9 +218,7 @@ def test_level_without_usable_sensor_is_an_error_naming_it(synthetic):
 
 def test_rate_contradicting_the_configuration_is_reported(synthetic):
     rec = synthetic.recording
-    r = rec.sensors["l1_acc_n"]
     modified = with_sensor(rec, "l1_acc_n", rate_hz=100.0)
     windows, report = ingest_recording(modified)
     assert "rate_mismatch" in report.codes("l1_acc_n")
     assert len(windows) == 2
-    del r
