@@ -36,9 +36,9 @@ REPO = Path(__file__).resolve().parents[1]
 def make_bag(path: Path) -> tuple[int, int]:
     """The bag (0.1 s blocks) and its number of channels and samples."""
     from pier_monitor.bags import read_bag, write_bag
-    from pier_monitor.core.config import load_config
+    from pier_monitor.core.model.config import load_config
     from pier_monitor.core.resources import find_config_file
-    from pier_monitor.core.synthetic import edefense_scenario, generate_recording
+    from pier_monitor.core.synthetic.shaking_table import edefense_scenario, generate_recording
 
     config = load_config(find_config_file("edefense_like.yaml"))
     if not path.exists():

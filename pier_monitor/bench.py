@@ -13,9 +13,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .core.ground_motion import synthetic_near_fault
-from .core.reference import table1_model
-from .core.solver import HAVE_NUMBA, simulate
+from pier_monitor.core.model.ground_motion import synthetic_near_fault
+from pier_monitor.core.synthetic.reference import table1_model
+from pier_monitor.core.model.solver import HAVE_NUMBA, simulate
 
 __all__ = ["bench_solver", "bench_ingest", "bench_paper", "bench_more", "run_identification_case",
            "score_identification", "SUITES", "DEFAULT_SUITES", "format_table"]
@@ -62,7 +62,7 @@ def score_identification(case: str, window: Any, truth: Any, resp: Any, settings
     that truly yield (true DF >= 1); ``k2_fy_df2`` is the largest |error| of ``k2``/``fy``
     over springs with true DF >= 2.
     """
-    from .core.damage import ductility_factors
+    from pier_monitor.core.identify.damage import ductility_factors
     from .pinn import PinnSettings, identify
 
     settings = settings or PinnSettings(seed=info.get("seed", 0))
@@ -107,7 +107,7 @@ def run_identification_case(case: str, *, moments_measured: bool, seed: int,
                             noise_mgal: float = 1.0, ground_motion: Any = None,
                             window_s: tuple[float, float] = (30.0, 50.0)) -> dict[str, Any]:
     """The paper's case (Table 1 pier, 1 mgal noise, paper starting point), scored."""
-    from .core.reference import paper_case_window
+    from pier_monitor.core.synthetic.reference import paper_case_window
 
     window, truth, resp = paper_case_window(moments_measured=moments_measured,
                                             noise_mgal=noise_mgal, seed=seed,
@@ -127,8 +127,8 @@ def bench_paper(seeds: int = 5) -> list[dict[str, Any]]:
 
 def bench_more() -> list[dict[str, Any]]:
     """The paper's Tables 4-5 and the realistic-noise case (one seed each)."""
-    from .core.ground_motion import synthetic_near_fault
-    from .core.reference import realistic_case_window
+    from pier_monitor.core.model.ground_motion import synthetic_near_fault
+    from pier_monitor.core.synthetic.reference import realistic_case_window
 
     out = []
     for noise in (0.1, 10.0):
@@ -144,7 +144,7 @@ def bench_more() -> list[dict[str, Any]]:
             f"long_duration_{'moments' if moments else 'no_moments'}", moments_measured=moments,
             seed=0, ground_motion=long_gm, window_s=(30.0, 60.0)))
     # a real record: El Centro 1940 NS at its own scale (PGA 3.07 m/s², DF 4.8 / 3.7 / 0.95)
-    from .core.ground_motion import el_centro_1940
+    from pier_monitor.core.model.ground_motion import el_centro_1940
 
     for moments in (True, False):
         out.append(run_identification_case(
@@ -164,7 +164,7 @@ def bench_ingest() -> list[dict[str, Any]]:
 
     from .bags import read_bag
     from .bags.synthetic_bag import write_synthetic_edefense_bag
-    from .core.ingest import StreamIngest, ingest_recording
+    from pier_monitor.core.ingest import StreamIngest, ingest_recording
 
     with tempfile.TemporaryDirectory() as tmp:
         info = write_synthetic_edefense_bag(Path(tmp) / "bench.mcap", fmt="mcap", seed=0)

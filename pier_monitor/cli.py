@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .core.errors import PierMonitorError
+from pier_monitor.core.errors import PierMonitorError
 
 if TYPE_CHECKING:  # pragma: no cover
     from .bags.synthetic_bag import SyntheticBagInfo
@@ -157,7 +157,7 @@ def _identify(bag: Path, out: Path, args: argparse.Namespace,
 
     config = None
     if pier is not None:
-        from .core.config import load_config
+        from pier_monitor.core.model.config import load_config
 
         config = load_config(pier)
     try:
@@ -205,10 +205,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _simulate_npz(args: argparse.Namespace) -> int:
-    from .core.config import load_config
-    from .core.ground_motion import load_accelerogram, synthetic_near_fault
-    from .core.reference import table1_model
-    from .core.solver import simulate
+    from pier_monitor.core.model.config import load_config
+    from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
+    from pier_monitor.core.synthetic.reference import table1_model
+    from pier_monitor.core.model.solver import simulate
 
     if args.pier is not None:
         cfg = load_config(args.pier)
@@ -312,7 +312,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         first, last = outcome.events[0], outcome.events[-1]
         comparison, paths = write_comparison(first.result, last.result, args.out,
                                              sources=(str(first.out_dir), str(last.out_dir)))
-        print(f"\ncomparison of the first and the last event")
+        print("\ncomparison of the first and the last event")
         print(comparison.table())
         print("\n".join(comparison.summary_lines()))
         print(f"figures: {paths.profile_png} and in each event directory")

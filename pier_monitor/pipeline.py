@@ -14,11 +14,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from .core.config import PierConfig
-from .core.damage import IdentificationResult
-from .core.errors import BagError, ReportError
-from .core.ingest import IngestReport, IngestSettings, ingest_recording
-from .core.window import MeasuredWindow, save_window
+from pier_monitor.core.model.config import PierConfig
+from pier_monitor.core.identify.damage import IdentificationResult
+from pier_monitor.core.errors import BagError, ReportError
+from pier_monitor.core.ingest import IngestReport, IngestSettings, ingest_recording
+from pier_monitor.core.ingest.window import MeasuredWindow, save_window
 
 __all__ = ["EventOutcome", "BagOutcome", "identify_bag"]
 

@@ -1,6 +1,6 @@
 """Read a rosbag2 directory or a plain mcap file back into a recording.
 
-The result is a :class:`~pier_monitor.core.recording.Recording`.
+The result is a :class:`~pier_monitor.core.ingest.recording.Recording`.
 
 Both formats are read with ``rosbags.rosbag2.Reader``, which opens rosbag2 directories
 (``metadata.yaml`` + storage files) and bare ``.mcap`` files of the ``ros2`` profile alike.
@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from pier_monitor.core.config import PierConfig, SensorSpec, config_from_yaml
+from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml
 from pier_monitor.core.errors import InputDataError, PierMonitorError
-from pier_monitor.core.recording import Recording, SensorRecord
+from pier_monitor.core.ingest.recording import Recording, SensorRecord
 
 from .errors import BagError
 from .types import SAMPLE_BLOCK, STRING, get_typestore, sample_block_arrays

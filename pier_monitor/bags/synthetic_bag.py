@@ -1,6 +1,6 @@
 """Write a realistic synthetic E-Defense-style bag with its ground truth beside it (SPEC §6).
 
-The default scenario (:func:`~pier_monitor.core.synthetic.edefense_scenario`: two runs of
+The default scenario (:func:`~pier_monitor.core.synthetic.shaking_table.edefense_scenario`: two runs of
 increasing damage) is played on ``config/edefense_like.yaml``, recorded with that
 configuration's sensor map, written as a rosbag2 directory or a plain ``.mcap`` file, and the
 ground truth is written next to the bag as ``<bag stem>.truth.npz`` (time series) and
@@ -15,10 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pier_monitor.core.config import load_config
-from pier_monitor.core.recording import NS_PER_S
+from pier_monitor.core.model.config import load_config
+from pier_monitor.core.ingest.recording import NS_PER_S
 from pier_monitor.core.resources import find_config_file
-from pier_monitor.core.synthetic import (Scenario, SyntheticTruth, generate_recording,
+from pier_monitor.core.synthetic.shaking_table import (Scenario, SyntheticTruth, generate_recording,
                                          save_truth)
 
 from .errors import BagError
@@ -110,7 +110,7 @@ def write_synthetic_edefense_bag(out_path: str | Path, *, fmt: BagFormat = "rosb
         Pier configuration with a sensor map; default ``edefense_like.yaml`` of the package.
     scenario : Scenario, optional
         Runs and quiet stretches; default the two-run
-        :func:`~pier_monitor.core.synthetic.edefense_scenario`.
+        :func:`~pier_monitor.core.synthetic.shaking_table.edefense_scenario`.
     block_s : float
         Length of a SampleBlock message, s.
 

@@ -17,13 +17,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.recording import NS_PER_S
+from pier_monitor.core.ingest.recording import NS_PER_S
 from pier_monitor.core.resources import find_share_path
 
 from .errors import BagError
 
 if TYPE_CHECKING:
-    from pier_monitor.core.config import SensorSpec
+    from pier_monitor.core.model.config import SensorSpec
     from rosbags.typesys.store import Typestore
 
 __all__ = [

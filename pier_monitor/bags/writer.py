@@ -1,4 +1,4 @@
-"""Write a :class:`~pier_monitor.core.recording.Recording` to a rosbag2 directory or an mcap file.
+"""Write a :class:`~pier_monitor.core.ingest.recording.Recording` to a rosbag2 directory or an mcap file.
 
 Layout of a bag (both formats):
 
@@ -32,8 +32,8 @@ import numpy as np
 import yaml
 
 from pier_monitor import __version__
-from pier_monitor.core.config import PierConfig, SensorSpec
-from pier_monitor.core.recording import NS_PER_S, Recording, SensorRecord
+from pier_monitor.core.model.config import PierConfig, SensorSpec
+from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
 
 from .errors import BagError
 from .types import KIND_CODES, SAMPLE_BLOCK, STRING, get_typestore, message_definition

@@ -12,7 +12,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import ConfigError
+from pier_monitor.core.errors import ConfigError
 
 __all__ = ["REPO_ROOT", "share_dirs", "find_share_path", "find_config_file"]
 

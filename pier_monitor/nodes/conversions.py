@@ -19,10 +19,10 @@ from pier_monitor_msgs.msg import (IdentificationProgress, MainshockWindow, Pier
 from sensor_msgs.msg import Imu
 
 from pier_monitor.bags.types import sample_block_arrays
-from pier_monitor.core.config import PierConfig, SensorSpec, config_from_yaml
+from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.recording import NS_PER_S
-from pier_monitor.core.window import MeasuredWindow
+from pier_monitor.core.ingest.recording import NS_PER_S
+from pier_monitor.core.ingest.window import MeasuredWindow
 
 __all__ = [
     "MessageError",

@@ -36,8 +36,8 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from pier_monitor.core.damage import IdentificationResult
-from pier_monitor.core.window import MeasuredWindow, load_window, save_window
+from pier_monitor.core.identify.damage import IdentificationResult
+from pier_monitor.core.ingest.window import MeasuredWindow, load_window, save_window
 
 from ._params import declare
 from .conversions import (MessageError, damage_state_msg, failed_state_fields, progress_msg,

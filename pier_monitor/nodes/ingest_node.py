@@ -39,10 +39,10 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import Imu
 from std_msgs.msg import String
 
-from pier_monitor.core.config import PierConfig, config_from_yaml, load_config
+from pier_monitor.core.model.config import PierConfig, config_from_yaml, load_config
 from pier_monitor.core.ingest import StreamIngest
-from pier_monitor.core.recording import NS_PER_S
-from pier_monitor.core.window import MeasuredWindow, save_window
+from pier_monitor.core.ingest.recording import NS_PER_S
+from pier_monitor.core.ingest.window import MeasuredWindow, save_window
 
 from ._params import declare
 from .conversions import block_arrays, imu_arrays, window_to_msg

@@ -15,7 +15,7 @@ The data term outweighs the physics by ``data_weight / physics_weight`` (default
 Parameters are optimised as log-values under Adam with projection (``k2 <= k1/2``,
 ``fy`` below the largest plausible yield moment) — or with the paper's Fig. 6 rule
 (``param_rule="paper"``).  By default they start from a physics-only equation-error fit
-(:mod:`pier_monitor.core.equation_error`, itself started from the design values), which
+(:mod:`pier_monitor.core.identify.equation_error`, itself started from the design values), which
 also tells which springs yielded; ``k2``/``fy`` of springs that did not are held and
 flagged as not identifiable.
 """
@@ -30,12 +30,12 @@ from typing import Any, Callable
 import numpy as np
 import torch
 
-from ..core.config import SpringParameters
-from ..core.damage import IdentificationResult, build_sections, overall_state
-from ..core.equation_error import fit_equation_error, inertia_moments, yield_test
-from ..core.errors import IdentificationError, InputDataError
-from ..core.model import angle_matrix
-from ..core.window import MeasuredWindow, Reproduced
+from pier_monitor.core.model.config import SpringParameters
+from pier_monitor.core.identify.damage import IdentificationResult, build_sections, overall_state
+from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments, yield_test
+from pier_monitor.core.errors import IdentificationError, InputDataError
+from pier_monitor.core.model.link_model import angle_matrix
+from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from .network import ResponseNet
 from .physics import PairTensors, Physics
 
@@ -94,7 +94,7 @@ class PinnSettings:
     device : {"auto", "cpu", "cuda"}
     seed : int
     yield_score : float
-        Threshold of the yield test (see :func:`~pier_monitor.core.equation_error.yield_test`).
+        Threshold of the yield test (see :func:`~pier_monitor.core.identify.equation_error.yield_test`).
     """
 
     pair_stride: int = 1

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pier_monitor.core.damage import IdentificationResult
+from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.errors import ReportError
 
 __all__ = ["check_same_pier", "engineering_scale", "ensure_dir", "format_df", "atomic_write_text"]

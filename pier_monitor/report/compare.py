@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from pier_monitor.core.damage import DamageState, IdentificationResult, k1_change_pct
+from pier_monitor.core.identify.damage import DamageState, IdentificationResult, k1_change_pct
 from pier_monitor.core.errors import ReportError
 
 from ._common import atomic_write_text, check_same_pier, engineering_scale, ensure_dir, format_df

@@ -26,8 +26,8 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from pier_monitor.core.config import SpringParameters
-from pier_monitor.core.damage import DAMAGED_DF, SUSPICIOUS_DF, IdentificationResult
+from pier_monitor.core.model.config import SpringParameters
+from pier_monitor.core.identify.damage import DAMAGED_DF, SUSPICIOUS_DF, IdentificationResult
 from pier_monitor.core.errors import ReportError
 
 from ._common import check_same_pier, engineering_scale, format_df
@@ -35,7 +35,7 @@ from ._common import check_same_pier, engineering_scale, format_df
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-    from pier_monitor.core.window import MeasuredWindow, Reproduced
+    from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 
 __all__ = [
     "FIGURE_DPI",

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pier_monitor import __version__
-from pier_monitor.core.damage import DamageState, IdentificationResult
+from pier_monitor.core.identify.damage import DamageState, IdentificationResult
 from pier_monitor.core.errors import BagError, ReportError
 
 from ._common import atomic_write_text, check_same_pier, ensure_dir
@@ -35,7 +35,7 @@ from .figures import (RunLike, check_window_matches, plot_hysteresis, plot_profi
                       plot_responses, plot_training)
 
 if TYPE_CHECKING:  # pragma: no cover
-    from pier_monitor.core.window import MeasuredWindow
+    from pier_monitor.core.ingest.window import MeasuredWindow
 
 __all__ = [
     "DAMAGE_STATE_TYPE",

@@ -12,9 +12,9 @@ import pytest
 from pier_monitor.bags import (SAMPLE_BLOCK, BagError, config_topic, find_msg_dir,
                                get_typestore, read_bag, read_bag_config, sensor_topic,
                                truth_paths, write_bag, write_synthetic_edefense_bag)
-from pier_monitor.core.config import config_from_yaml, load_config
-from pier_monitor.core.recording import Recording, SensorRecord
-from pier_monitor.core.synthetic import generate_recording, load_truth
+from pier_monitor.core.model.config import config_from_yaml, load_config
+from pier_monitor.core.ingest.recording import Recording, SensorRecord
+from pier_monitor.core.synthetic.shaking_table import generate_recording, load_truth
 
 
 @pytest.fixture(scope="module")

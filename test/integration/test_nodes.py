@@ -34,9 +34,9 @@ RUN_MODULE = ("import runpy, sys; module = sys.argv.pop(1); "
 def short_bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int]:
     """An 88 s two-run bag and the number of samples it holds."""
     from pier_monitor.bags import read_bag, write_bag
-    from pier_monitor.core.config import load_config
+    from pier_monitor.core.model.config import load_config
     from pier_monitor.core.resources import find_config_file
-    from pier_monitor.core.synthetic import edefense_scenario, generate_recording
+    from pier_monitor.core.synthetic.shaking_table import edefense_scenario, generate_recording
 
     config = load_config(find_config_file("edefense_like.yaml"))
     scenario = edefense_scenario(record_s=20.0, lead_s=12.0, gap_s=18.0, tail_s=18.0)
@@ -249,7 +249,7 @@ def test_bad_parameters_bad_messages_and_failed_training_keep_the_nodes_running(
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import Imu
 
-    from pier_monitor.core.config import load_config
+    from pier_monitor.core.model.config import load_config
     from pier_monitor.core.resources import find_config_file
     from pier_monitor.nodes.ingest_node import SENSOR_QOS
 
@@ -323,7 +323,7 @@ def test_conversions_check_messages_against_the_sensor_map_and_roundtrip_windows
     from pier_monitor_msgs.msg import SampleBlock
     from sensor_msgs.msg import Imu
 
-    from pier_monitor.core.config import load_config
+    from pier_monitor.core.model.config import load_config
     from pier_monitor.core.resources import find_config_file
     from pier_monitor.nodes.conversions import (MessageError, block_arrays, imu_arrays,
                                                 window_from_msg, window_to_msg)
@@ -380,7 +380,7 @@ def test_imu_samples_are_counted_one_per_message_and_bad_imu_messages_dropped(
     from sensor_msgs.msg import Imu
     from std_msgs.msg import String
 
-    from pier_monitor.core.config import load_config
+    from pier_monitor.core.model.config import load_config
     from pier_monitor.core.resources import find_config_file
     from pier_monitor.nodes.ingest_node import LATCHED_QOS, SENSOR_QOS
 

@@ -10,10 +10,10 @@ import pytest
 from pier_monitor.bags import read_bag, write_bag
 from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
 from pier_monitor.cli import main
-from pier_monitor.core.damage import IdentificationResult
+from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.errors import BagError, ReportError
-from pier_monitor.core.recording import Recording
-from pier_monitor.core.window import load_window
+from pier_monitor.core.ingest.recording import Recording
+from pier_monitor.core.ingest.window import load_window
 from pier_monitor.pinn import PinnSettings
 from pier_monitor.pipeline import identify_bag
 

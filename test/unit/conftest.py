@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from pier_monitor.core.ground_motion import synthetic_near_fault
-from pier_monitor.core.reference import table1_model
-from pier_monitor.core.solver import simulate
+from pier_monitor.core.model.ground_motion import synthetic_near_fault
+from pier_monitor.core.synthetic.reference import table1_model
+from pier_monitor.core.model.solver import simulate
 
 
 @pytest.fixture(scope="session")

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import yaml
 
-from pier_monitor.core.config import SpringParameters, config_from_yaml, load_config
+from pier_monitor.core.model.config import SpringParameters, config_from_yaml, load_config
 from pier_monitor.core.errors import ConfigError, PierMonitorError
-from pier_monitor.core.reference import table1_model
+from pier_monitor.core.synthetic.reference import table1_model
 
 CONFIG_DIR = Path(__file__).resolve().parents[2] / "config"
 

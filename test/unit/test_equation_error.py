@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pier_monitor.core.damage import ductility_factors
-from pier_monitor.core.equation_error import fit_equation_error
-from pier_monitor.core.reference import paper_case_window
+from pier_monitor.core.identify.damage import ductility_factors
+from pier_monitor.core.identify.equation_error import fit_equation_error
+from pier_monitor.core.synthetic.reference import paper_case_window
 
 
 @pytest.mark.parametrize("moments", [True, False])
@@ -31,7 +31,7 @@ def test_fit_recovers_table1_from_the_papers_starting_point(moments):
 
 def test_window_file_round_trip_and_damage(tmp_path):
     from pier_monitor.core.errors import InputDataError
-    from pier_monitor.core.window import load_window, save_window
+    from pier_monitor.core.ingest.window import load_window, save_window
 
     window, _, _ = paper_case_window(moments_measured=True, seed=0)
     path = save_window(window, tmp_path / "w.npz")

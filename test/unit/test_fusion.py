@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.fusion import fuse_acceleration_displacement
+from pier_monitor.core.ingest.fusion import fuse_acceleration_displacement
 
 
 def motion(rate_hz: float = 200.0, duration_s: float = 30.0):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from pier_monitor.core.errors import GroundMotionError
-from pier_monitor.core.ground_motion import load_accelerogram, synthetic_near_fault
-from pier_monitor.core.units import G_STANDARD
+from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
+from pier_monitor.core.model.units import G_STANDARD
 
 
 def test_synthetic_near_fault_is_seeded_scaled_and_strong_in_the_mainshock_window():
@@ -85,7 +85,7 @@ def test_missing_accelerogram_file(tmp_path):
 
 
 def test_el_centro_record_ships_with_the_package():
-    from pier_monitor.core.ground_motion import el_centro_1940
+    from pier_monitor.core.model.ground_motion import el_centro_1940
 
     gm = el_centro_1940()
     assert gm.dt == 0.02 and gm.acc.size == 3995

@@ -9,10 +9,10 @@ import pytest
 from scipy import signal
 
 from pier_monitor.core.ingest import IngestError, StreamIngest, ingest_recording
-from pier_monitor.core.recording import Recording, SensorRecord
+from pier_monitor.core.ingest.recording import Recording, SensorRecord
 from pier_monitor.core.resources import find_config_file
-from pier_monitor.core.config import load_config
-from pier_monitor.core.synthetic import generate_recording
+from pier_monitor.core.model.config import load_config
+from pier_monitor.core.synthetic.shaking_table import generate_recording
 
 
 @pytest.fixture(scope="module")

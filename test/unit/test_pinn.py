@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import torch
 
-from pier_monitor.core.config import PierGeometry, SpringParameters
+from pier_monitor.core.model.config import PierGeometry, SpringParameters
 from pier_monitor.core.errors import IdentificationError, InputDataError
-from pier_monitor.core.ground_motion import synthetic_near_fault
-from pier_monitor.core.model import angle_matrix
-from pier_monitor.core.reference import paper_case_window
-from pier_monitor.core.solver import simulate
-from pier_monitor.core.window import MeasuredWindow
+from pier_monitor.core.model.ground_motion import synthetic_near_fault
+from pier_monitor.core.model.link_model import angle_matrix
+from pier_monitor.core.synthetic.reference import paper_case_window
+from pier_monitor.core.model.solver import simulate
+from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.pinn import PinnSettings, identify
 from pier_monitor.pinn.physics import PairTensors, Physics
 from pier_monitor.pinn.trainer import _paper_rule_step, _params_from_log, _Problem, _project

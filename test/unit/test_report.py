@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from pier_monitor import __version__
-from pier_monitor.core.damage import IdentificationResult, SectionResult, classify_ductility
+from pier_monitor.core.identify.damage import IdentificationResult, SectionResult, classify_ductility
 from pier_monitor.core.errors import ReportError
 from pier_monitor.report import (FIGURE_DPI, PROFILE_FIGSIZE_IN, compare_results,
                                  damage_state_fields, damage_state_topic, load_result,
@@ -54,7 +54,7 @@ def _result(pier_id: str, event_id: str, k1: list[float], df: list[float],
 @pytest.fixture(scope="module")
 def identified() -> tuple[Any, Any]:
     """A short real identification of the paper case (window with an absolute start time)."""
-    from pier_monitor.core.reference import paper_case_window
+    from pier_monitor.core.synthetic.reference import paper_case_window
     from pier_monitor.pinn import PinnSettings, identify
 
     import torch

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from scipy import integrate, linalg, signal
 
-from pier_monitor.core.config import PierGeometry, SpringParameters
+from pier_monitor.core.model.config import PierGeometry, SpringParameters
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.model import (angle_matrix, bilinear_step, damping_matrix,
+from pier_monitor.core.model.link_model import (angle_matrix, bilinear_step, damping_matrix,
                                      elastic_stiffness_matrix, estimated_moments,
                                      natural_periods)
-from pier_monitor.core.solver import simulate
+from pier_monitor.core.model.solver import simulate
 
 DT = 0.001
 
@@ -251,7 +251,7 @@ def _energy_terms(resp, geometry, params):
 
 def test_energy_balance_table1_within_half_percent(table1):
     geometry, params = table1
-    from pier_monitor.core.ground_motion import synthetic_near_fault
+    from pier_monitor.core.model.ground_motion import synthetic_near_fault
 
     gm = synthetic_near_fault(pga_mps2=8.0).resampled(DT)
     resp = simulate(geometry, params, gm.acc, gm.dt)

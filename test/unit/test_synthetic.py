@@ -10,12 +10,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pier_monitor.core.config import PierConfig, SensorSpec, load_config
+from pier_monitor.core.model.config import PierConfig, SensorSpec, load_config
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.model import natural_periods
-from pier_monitor.core.recording import Recording, SensorRecord
+from pier_monitor.core.model.link_model import natural_periods
+from pier_monitor.core.ingest.recording import Recording, SensorRecord
 from pier_monitor.core.resources import find_config_file
-from pier_monitor.core.synthetic import (DEFAULT_START_NS, RunSpec, Scenario,
+from pier_monitor.core.synthetic.shaking_table import (DEFAULT_START_NS, RunSpec, Scenario,
                                          edefense_scenario, generate_recording, load_truth,
                                          save_truth)
 
@@ -256,7 +256,7 @@ def test_mainshock_window_holds_the_peak_response(synthetic):
 
 def test_truth_response_is_the_link_model_of_the_run(synthetic):
     """Equation of motion of the truth: M(a + ag) + C v + Bᵀ f = 0 at every sample."""
-    from pier_monitor.core.model import angle_matrix, damping_matrix
+    from pier_monitor.core.model.link_model import angle_matrix, damping_matrix
 
     for run in synthetic.truth.runs:
         r, g, p = run.response, run.geometry, run.params
@@ -334,7 +334,7 @@ def test_missing_configuration_file_is_a_config_error(tmp_path, monkeypatch):
 
 
 def test_core_synthetic_imports_no_ros_or_bag_packages():
-    code = ("import sys, pier_monitor.core.synthetic, pier_monitor.core.recording; "
+    code = ("import sys, pier_monitor.core.synthetic.shaking_table, pier_monitor.core.ingest.recording; "
             "bad = [m for m in ('rclpy', 'rosbags', 'mcap', 'torch') if m in sys.modules]; "
             "print(bad); sys.exit(1 if bad else 0)")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

@@ -7,7 +7,7 @@ named unit to give SI (m/s^2, m/s, m).
 
 from __future__ import annotations
 
-from .errors import ConfigError
+from pier_monitor.core.errors import ConfigError
 
 __all__ = ["G_STANDARD", "UNIT_FACTORS", "to_si_factor"]
 

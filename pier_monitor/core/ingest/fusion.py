@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._jit import jit
-from .errors import InputDataError
+from pier_monitor.core._jit import jit
+from pier_monitor.core.errors import InputDataError
 
 __all__ = ["FusedMotion", "fuse_acceleration_displacement"]
 

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 from scipy import signal
 
-from .errors import GroundMotionError
-from .units import to_si_factor
+from pier_monitor.core.errors import GroundMotionError
+from pier_monitor.core.model.units import to_si_factor
 
 __all__ = ["GroundMotion", "synthetic_near_fault", "load_accelerogram", "el_centro_1940",
            "UNIT_CHOICES"]

@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from .config import PierGeometry, SpringParameters
-from .errors import InputDataError
-from .model import check_response_array
+from pier_monitor.core.model.config import PierGeometry, SpringParameters
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.model.link_model import check_response_array
 
 __all__ = ["MeasuredWindow", "Reproduced", "QUANTITIES", "save_window", "load_window"]
 

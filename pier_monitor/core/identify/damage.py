@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from .config import PierGeometry, SpringParameters
-from .errors import InputDataError
+from pier_monitor.core.model.config import PierGeometry, SpringParameters
+from pier_monitor.core.errors import InputDataError
 
 __all__ = [
     "DamageState",

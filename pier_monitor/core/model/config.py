@@ -23,7 +23,7 @@ Layout of the file (SI units, names carry them)::
         topic: sensors/l1/acc_n      # relative ROS topic name
         level: 1                     # 0 = foundation, n = level n
         kind: acceleration           # acceleration | velocity | displacement
-        unit: gal                    # see pier_monitor.core.units
+        unit: gal                    # see pier_monitor.core.model.units
         axes: [x, y, z]              # channel names as recorded
         orientation_deg: 90.0        # azimuth of the sensor's x axis in the pier frame
         signs: [1, -1, 1]            # per-axis sign of the mounting
@@ -45,8 +45,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import yaml
 
-from .errors import ConfigError
-from .units import UNIT_FACTORS, to_si_factor
+from pier_monitor.core.errors import ConfigError
+from pier_monitor.core.model.units import UNIT_FACTORS, to_si_factor
 
 __all__ = [
     "SpringParameters",

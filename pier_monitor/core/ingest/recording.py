@@ -2,7 +2,7 @@
 
 One :class:`SensorRecord` per physical sensor holds its samples exactly as recorded: in the
 sensor's own unit, with its own sign, gain, offset and orientation (the sensor map of the
-:class:`~pier_monitor.core.config.PierConfig` describes how to undo them).  Times are
+:class:`~pier_monitor.core.model.config.PierConfig` describes how to undo them).  Times are
 integer nanoseconds since the Unix epoch.  Arrays are time-first.
 
 Nothing here checks that the samples are sane (finite, uniformly spaced, in order): a
@@ -17,8 +17,8 @@ from typing import Mapping
 
 import numpy as np
 
-from .config import PierConfig
-from .errors import InputDataError
+from pier_monitor.core.model.config import PierConfig
+from pier_monitor.core.errors import InputDataError
 
 __all__ = ["SensorRecord", "Recording", "sample_times_ns", "NS_PER_S"]
 

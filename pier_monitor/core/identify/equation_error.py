@@ -27,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, optimize
 
-from .config import PierGeometry, SpringParameters
-from .errors import InputDataError
-from .model import angle_matrix, check_response_array
+from pier_monitor.core.model.config import PierGeometry, SpringParameters
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.model.link_model import angle_matrix, check_response_array
 
 __all__ = ["SpringFit", "EquationErrorFit", "inertia_moments", "fit_equation_error", "yield_test"]
 

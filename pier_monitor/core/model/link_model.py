@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import linalg
 
-from .errors import InputDataError
-from .config import PierGeometry, SpringParameters
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.model.config import PierGeometry, SpringParameters
 
 __all__ = [
     "angle_matrix",

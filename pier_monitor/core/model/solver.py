@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import PierGeometry, SpringParameters
-from .errors import InputDataError, SolverError
-from .model import angle_matrix, damping_matrix
+from pier_monitor.core.model.config import PierGeometry, SpringParameters
+from pier_monitor.core.errors import InputDataError, SolverError
+from pier_monitor.core.model.link_model import angle_matrix, damping_matrix
 
-from ._jit import HAVE_NUMBA, jit as _jit
+from pier_monitor.core._jit import HAVE_NUMBA, jit as _jit
 
 __all__ = ["Response", "simulate", "HAVE_NUMBA"]
 

@@ -6,12 +6,12 @@ import numpy as np
 
 from typing import TYPE_CHECKING
 
-from .config import PierGeometry, SpringParameters
+from pier_monitor.core.model.config import PierGeometry, SpringParameters
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .ground_motion import GroundMotion
-    from .solver import Response
-    from .window import MeasuredWindow
+    from pier_monitor.core.model.ground_motion import GroundMotion
+    from pier_monitor.core.model.solver import Response
+    from pier_monitor.core.ingest.window import MeasuredWindow
 
 __all__ = ["table1_model", "paper_case_window", "realistic_case_window"]
 
@@ -51,9 +51,9 @@ def paper_case_window(*, moments_measured: bool = True, noise_mgal: float = 1.0,
     response : Response
         The noise-free responses over the window.
     """
-    from .ground_motion import synthetic_near_fault
-    from .solver import simulate
-    from .window import MeasuredWindow
+    from pier_monitor.core.model.ground_motion import synthetic_near_fault
+    from pier_monitor.core.model.solver import simulate
+    from pier_monitor.core.ingest.window import MeasuredWindow
 
     geometry, truth = table1_model()
     gm = ground_motion if ground_motion is not None else synthetic_near_fault(pga_mps2=8.0)
@@ -87,10 +87,10 @@ def realistic_case_window(*, seed: int = 0, acc_noise_mps2: float = 1e-3,
     window padded by ``pad_s``, then everything is taken at 100 Hz.  Design values: the
     paper's starting point (half ``k1, k2, c``, a tenth of ``fy``); nothing uses the truth.
     """
-    from .fusion import fuse_acceleration_displacement
-    from .ground_motion import synthetic_near_fault
-    from .solver import simulate
-    from .window import MeasuredWindow
+    from pier_monitor.core.ingest.fusion import fuse_acceleration_displacement
+    from pier_monitor.core.model.ground_motion import synthetic_near_fault
+    from pier_monitor.core.model.solver import simulate
+    from pier_monitor.core.ingest.window import MeasuredWindow
 
     geometry, truth = table1_model()
     gm = synthetic_near_fault(pga_mps2=8.0)

@@ -8,9 +8,9 @@ and its own table motion.
 
 Physics of one run
     The link model (SPEC §3) is integrated in the principal direction with
-    :func:`~pier_monitor.core.solver.simulate` (internal step 1 ms, output at the sensors'
+    :func:`~pier_monitor.core.model.solver.simulate` (internal step 1 ms, output at the sensors'
     rate) under the principal component of the table acceleration, a
-    :func:`~pier_monitor.core.ground_motion.synthetic_near_fault` record.  The table also
+    :func:`~pier_monitor.core.model.ground_motion.synthetic_near_fault` record.  The table also
     moves transversely (a weaker record of its own) and vertically (a higher-frequency
     record); the transverse response is the same link model kept elastic, the pier is rigid
     vertically.  The table idles with a small broadband noise all the time.  Parameters switch
@@ -22,7 +22,7 @@ Physics of one run
 Measurement
     Every sensor records, per the configuration's measurement model
     ``recorded_j = gain * signs_j * (u · e_j) / unit_factor + offsets_j + noise``
-    (:class:`~pier_monitor.core.config.SensorSpec`), the true 3-D motion ``u`` at its level:
+    (:class:`~pier_monitor.core.model.config.SensorSpec`), the true 3-D motion ``u`` at its level:
     accelerometers the absolute acceleration (foundation: the table's), velocity meters the
     absolute velocity, displacement transducers the displacement relative to the table (a
     frame fixed to it).  The offsets of the configuration are the channels' biases (for a
@@ -46,12 +46,12 @@ from typing import Any, Mapping
 import numpy as np
 from scipy import signal
 
-from .config import PierConfig, PierGeometry, SensorSpec, SpringParameters
-from .errors import InputDataError
-from .ground_motion import synthetic_near_fault
-from .model import natural_periods
-from .recording import NS_PER_S, Recording, SensorRecord, sample_times_ns
-from .solver import Response, simulate
+from pier_monitor.core.model.config import PierConfig, PierGeometry, SensorSpec, SpringParameters
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.model.ground_motion import synthetic_near_fault
+from pier_monitor.core.model.link_model import natural_periods
+from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord, sample_times_ns
+from pier_monitor.core.model.solver import Response, simulate
 
 __all__ = [
     "DEFAULT_START_NS",

@@ -1,0 +1,1 @@
+"""Identification in numpy/scipy: the equation-error fit and the damage indices."""

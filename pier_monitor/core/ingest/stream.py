@@ -1,0 +1,139 @@
+"""Incremental ingest of sample blocks as they arrive (the live node's path)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pier_monitor.core.ingest.clean import clean_recording
+from pier_monitor.core.ingest.events import detect_events, trigger_threshold
+from pier_monitor.core.ingest.levels import level_motion
+from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
+from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
+from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.core.ingest.windows import ingest_recording
+from pier_monitor.core.model.config import PierConfig
+
+__all__ = ["StreamIngest"]
+
+
+class StreamIngest:
+    """Incremental ingest: feed sample blocks as they arrive, get windows once events end.
+
+    A bounded ring buffer per sensor keeps ``buffer_s`` seconds.  Every ``poll_s`` of new
+    foundation data the causal trigger runs on the buffered foundation accelerometers; once
+    an event has ended (``merge_gap_s`` + ``context_s`` of data after its window), the
+    buffered samples are ingested exactly as :func:`ingest_recording` would and the window is
+    returned by :meth:`push`.  Nothing received is dropped: samples stay in the buffer until
+    they are older than ``buffer_s``, and :attr:`received` counts them.
+    """
+
+    def __init__(self, config: PierConfig, settings: IngestSettings | None = None,
+                 buffer_s: float = 300.0, poll_s: float = 1.0) -> None:
+        self.config = config
+        self.settings = settings or IngestSettings()
+        self.buffer_s = buffer_s
+        self.rate = config.sample_rate_hz
+        self._cap = int(buffer_s * self.rate) + 1
+        self._buf: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+        self._count: dict[str, int] = {}
+        self._foundation = {sp.sensor_id for sp in config.sensors
+                            if sp.level == 0 and sp.kind == "acceleration"}
+        self._poll_ns = int(poll_s * NS_PER_S)
+        self._last_poll_ns: int | None = None
+        self._done_until_ns = -1
+        self._updates: list[tuple[int, PierConfig]] = []
+        self.report = IngestReport()
+        self.received = 0
+
+    def update_config(self, time_ns: int, config: PierConfig) -> None:
+        """A new configuration holds from ``time_ns`` (e.g. deck mass added before a run).
+
+        Only geometry and design values may change; the sensor map stays.
+        """
+        self._updates.append((int(time_ns), config))
+        Recording(self.config, {}, config_updates=tuple(self._updates))  # validates
+
+    def push(self, sensor_id: str, time_ns: np.ndarray, data: np.ndarray,
+             sample_index: np.ndarray | None = None) -> list[MeasuredWindow]:
+        """Add a block of one sensor (times in ns, data (T, n_axes) as recorded).
+
+        Returns the windows of events that have just ended (usually none).
+        """
+        if sensor_id not in {sp.sensor_id for sp in self.config.sensors}:
+            self.report.add("unmapped_sensor", sensor_id, "sample block of a sensor that is "
+                            "not in the sensor map; ignored")
+            return []
+        time_ns = np.asarray(time_ns, dtype=np.int64).reshape(-1)
+        data = np.asarray(data, dtype=float).reshape(time_ns.size, -1)
+        if sample_index is None:
+            start = self._count.get(sensor_id, 0)
+            sample_index = np.arange(start, start + time_ns.size, dtype=np.int64)
+        sample_index = np.asarray(sample_index, dtype=np.int64).reshape(-1)
+        if time_ns.size:
+            self._count[sensor_id] = max(self._count.get(sensor_id, 0),
+                                         int(sample_index.max()) + 1)
+        self._buf.setdefault(sensor_id, []).append((time_ns, data, sample_index))
+        self.received += time_ns.size
+        self._trim(sensor_id)
+        if sensor_id not in self._foundation or not time_ns.size:
+            return []
+        now = int(time_ns.max())
+        if self._last_poll_ns is not None and now - self._last_poll_ns < self._poll_ns:
+            return []
+        self._last_poll_ns = now
+        return self._poll()
+
+    def flush(self) -> list[MeasuredWindow]:
+        """End of the stream: windows of events whose data ended with the stream."""
+        return self._poll(final=True)
+
+    def _trim(self, sensor_id: str) -> None:
+        blocks = self._buf[sensor_id]
+        total = sum(b[0].size for b in blocks)
+        while blocks and total - blocks[0][0].size >= self._cap:
+            total -= blocks.pop(0)[0].size
+
+    def _recording(self, only: set[str] | None = None) -> Recording:
+        sensors = {}
+        for sid, blocks in self._buf.items():
+            if not blocks or (only is not None and sid not in only):
+                continue
+            sensors[sid] = SensorRecord(sid, np.concatenate([b[0] for b in blocks]),
+                                        np.concatenate([b[1] for b in blocks]), self.rate,
+                                        np.concatenate([b[2] for b in blocks]))
+        return Recording(self.config, sensors, source="stream",
+                         config_updates=tuple(self._updates))
+
+    def _poll(self, final: bool = False) -> list[MeasuredWindow]:
+        s = self.settings
+        found = self._recording(self._foundation)
+        if not found.sensors:
+            return []
+        quiet_ns = int((s.merge_gap_s + s.context_s) * NS_PER_S)
+        scratch = IngestReport()
+        cleaned, t0, n, rate = clean_recording(found, s, scratch)
+        ag_xy = level_motion(cleaned, "acceleration", 0, slice(0, n), False)
+        if ag_xy is None:
+            return []
+        spans = detect_events(np.nan_to_num(ag_xy), rate, trigger_threshold(self.config, s), s)
+        end_ns = found.end_ns
+        ready = [(w0, w1) for w0, w1 in spans
+                 if t0 + int(w0 * NS_PER_S / rate) > self._done_until_ns
+                 and (final or end_ns - (t0 + int(w1 * NS_PER_S / rate)) >= quiet_ns)]
+        if not ready:
+            return []
+        windows, report = ingest_recording(self._recording(), s)
+        # each ingest reports on the whole buffer: keep every finding once
+        seen = set(self.report.events)
+        self.report.events.extend(e for e in report.events if e not in seen)
+        self.report.checks.update(report.checks)
+        out = []
+        for w in windows:
+            if w.start_time_ns <= self._done_until_ns:
+                continue
+            w_end = w.start_time_ns + int(round(w.duration_s * NS_PER_S))
+            if not final and end_ns - w_end < quiet_ns:
+                continue
+            out.append(w)
+            self._done_until_ns = w.start_time_ns
+        return out
