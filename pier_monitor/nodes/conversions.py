@@ -22,7 +22,7 @@ from pier_monitor.bags.types import sample_block_arrays
 from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.ingest.recording import NS_PER_S
-from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
 
 __all__ = [
     "MessageError",
@@ -124,10 +124,10 @@ def window_to_msg(window: MeasuredWindow, config: PierConfig) -> MainshockWindow
     msg.displacement = window.x.ravel().tolist()
     for name, key in (("acceleration_sigma", "a"), ("velocity_sigma", "v"),
                       ("displacement_sigma", "x")):
-        if key in window.sigma:
-            setattr(msg, name, np.asarray(window.sigma[key], dtype=float).ravel().tolist())
+        setattr(msg, name, getattr(window.noise, key).tolist())
     msg.pier_config_yaml = config.to_yaml()
-    msg.report = json.dumps({"report": window.report, "sigma_ag": window.sigma.get("ag"),
+    msg.report = json.dumps({"report": window.report, "noise": window.noise.as_dict(),
+                             "coverage": window.coverage.as_dict(),
                              "t0_s": float(window.t[0])})
     return msg
 
@@ -156,19 +156,13 @@ def window_from_msg(msg: MainshockWindow, topic: str = "mainshock_window") -> Me
                 raise MessageError(f"{where}: {name} has {arr.size} values, expected "
                                    f"n_samples x n_levels = {m * n}")
             arrays[key] = arr.reshape(shape)
-        sigma: dict[str, Any] = {}
-        for key, name in (("a", "acceleration_sigma"), ("v", "velocity_sigma"),
-                          ("x", "displacement_sigma")):
-            arr = np.asarray(getattr(msg, name), dtype=float)
-            if arr.size:
-                sigma[key] = arr
-        if extra.get("sigma_ag") is not None:
-            sigma["ag"] = float(extra["sigma_ag"])
+        noise = NoiseModel.from_dict(extra["noise"]) if "noise" in extra else None
+        coverage = Coverage.from_dict(extra["coverage"]) if "coverage" in extra else None
         t = float(extra.get("t0_s", 0.0)) + np.arange(m) / rate
         return MeasuredWindow(
             pier_id=msg.pier_id, event_id=msg.event_id, geometry=config.geometry,
             design=config.design, t=t, ag=np.asarray(msg.ground_acceleration, dtype=float),
-            a=arrays["a"], v=arrays["v"], x=arrays["x"], sigma=sigma,
+            a=arrays["a"], v=arrays["v"], x=arrays["x"], noise=noise, coverage=coverage,
             start_time_ns=time_to_ns(msg.header.stamp), report=extra.get("report", {}))
     except MessageError:
         raise

@@ -222,19 +222,18 @@ class _Problem:
         self.scale_eom = tt(inertia)
         self.f_cap = tt(2.0 * np.abs(f_ref).max(axis=0))  # largest plausible yield moment
         # noise scales of the residual network's corrections
-        sig = window.sigma
+        sig = window.noise
         self.noise = {}
         for q in ("a", "v", "x", "f"):
-            s = sig.get(q)
             default = 1e-3 * (self.scale[q] if q != "f" else float(self.scale["f"].max()))
-            val = np.full(n, default) if s is None else np.broadcast_to(np.asarray(s, float), (n,))
+            val = np.where(np.isfinite(getattr(sig, q)), getattr(sig, q), default)
             self.noise[q] = tt(np.maximum(val, 1e-9 * (default / 1e-3)))
         # noise of the angles and moments and of their increments, for the
         # errors-in-variables weighting; increments of smoothed data (sigma "dx", "dv")
         # are far less noisy than twice the level noise
         var_x = self.noise["x"].cpu().numpy() ** 2
         var_theta = (b ** 2) @ var_x
-        var_dtheta = (b ** 2) @ _sigma2(sig, "dx", 2.0 * var_x, n)
+        var_dtheta = (b ** 2) @ _increment_variance(sig.dx, var_x)
         if self.measured_f:
             var_f = self.noise["f"].cpu().numpy() ** 2
             var_df = 2.0 * var_f
@@ -242,11 +241,11 @@ class _Problem:
             bt_inv = np.linalg.inv(b.T)
             m = window.geometry.masses_kg
             var_a = self.noise["a"].cpu().numpy() ** 2
-            var_ag = float(np.asarray(sig.get("ag", np.sqrt(var_a.mean())))) ** 2
+            var_ag = (sig.ag if np.isfinite(sig.ag) else float(np.sqrt(var_a.mean()))) ** 2
             var_v = self.noise["v"].cpu().numpy() ** 2
             var_inertia = (bt_inv ** 2) @ (m ** 2 * var_a) + (bt_inv @ m) ** 2 * var_ag
             var_f = var_inertia + init.c ** 2 * ((b ** 2) @ var_v)
-            var_df = 2.0 * var_inertia + init.c ** 2 * ((b ** 2) @ _sigma2(sig, "dv", 2.0 * var_v, n))
+            var_df = 2.0 * var_inertia + init.c ** 2 * ((b ** 2) @ _increment_variance(sig.dv, var_v))
         floor = 1e-4 * np.abs(f_ref).max(axis=0)
         self.var_theta, self.var_f = tt(var_theta), tt(var_f)
         self.var_dtheta, self.var_df = tt(var_dtheta), tt(var_df)
@@ -313,12 +312,10 @@ class _Problem:
         return s.data_weight * terms["data"] + s.physics_weight * physics
 
 
-def _sigma2(sigma: dict[str, Any], key: str, default: np.ndarray, n: int) -> np.ndarray:
-    """Variance per level from ``sigma[key]`` (scalar or (N,)), else ``default``."""
-    value = sigma.get(key)
-    if value is None:
-        return default
-    return np.broadcast_to(np.asarray(value, dtype=float), (n,)) ** 2
+def _increment_variance(sigma_increment: np.ndarray, var_level: np.ndarray) -> np.ndarray:
+    """Variance of one-sample increments, (N,): the known increment noise, else white
+    (twice the level variance)."""
+    return np.where(np.isfinite(sigma_increment), sigma_increment ** 2, 2.0 * var_level)
 
 
 def _params_from_log(logp: torch.Tensor, ref: torch.Tensor) -> tuple[torch.Tensor, ...]:

@@ -70,7 +70,7 @@ def test_windows_match_the_ground_truth(synthetic, ingested):
         ws = (w.start_time_ns - run.start_ns) / 1e9
         inside = (t >= ws) & (t < ws + w.duration_s)
         assert np.sum(ag[inside] ** 2) / np.sum(ag ** 2) >= 0.95
-        assert w.sigma["v"].shape == (4,) and np.all(w.sigma["v"] > 0)
+        assert w.noise.v.shape == (4,) and np.all(w.noise.v > 0)
     # the velocity meter at the top agrees with the fused velocity
     for checks in report.checks["velocity_meter"].values():
         assert checks["level4"]["rms_difference_mps"] < 0.01 * checks["level4"]["rms_velocity_mps"]

@@ -13,7 +13,7 @@ from pier_monitor.core.ingest.fusion import fuse_acceleration_displacement
 from pier_monitor.core.ingest.levels import estimate_principal_direction, level_motion, level_noise_si
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording
 from pier_monitor.core.ingest.settings import IngestError, IngestReport, IngestSettings
-from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
 
 __all__ = ["ingest_recording"]
 
@@ -90,11 +90,13 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
         pier_id=config.pier_id, event_id=event_id, geometry=config.geometry,
         design=config.design, t=t, ag=dec["ag"][:m], a=dec["a"][:m], v=dec["v"][:m],
         x=dec["x"][:m], moments=None,
-        sigma={"ag": float(level_noise_si(config, "acceleration", 0)), "a": sig_a,
-               "v": fused.v_sigma[inner].mean(axis=0), "x": fused.x_sigma[inner].mean(axis=0),
-               # increments over one output step (factor sensor steps)
-               "dx": np.sqrt(factor * np.mean(fused.dx_sigma[inner] ** 2, axis=0)),
-               "dv": np.sqrt(factor * np.mean(fused.dv_sigma[inner] ** 2, axis=0))},
+        noise=NoiseModel(
+            ag=float(level_noise_si(config, "acceleration", 0)), a=sig_a,
+            v=fused.v_sigma[inner].mean(axis=0), x=fused.x_sigma[inner].mean(axis=0),
+            # increments over one output step (factor sensor steps)
+            dx=np.sqrt(factor * np.mean(fused.dx_sigma[inner] ** 2, axis=0)),
+            dv=np.sqrt(factor * np.mean(fused.dv_sigma[inner] ** 2, axis=0)),
+            f=np.full(n_lv, np.nan)),
         start_time_ns=start_ns,
         report={"principal_direction_deg": direction, "fusion_q": fused.q.tolist(),
                 "velocity_meter_check": checks, "channels": counts})

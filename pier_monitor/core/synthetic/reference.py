@@ -11,7 +11,7 @@ from pier_monitor.core.model.config import PierGeometry, SpringParameters
 if TYPE_CHECKING:  # pragma: no cover
     from pier_monitor.core.model.ground_motion import GroundMotion
     from pier_monitor.core.model.solver import Response
-    from pier_monitor.core.ingest.window import MeasuredWindow
+    from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
 
 __all__ = ["table1_model", "paper_case_window", "realistic_case_window"]
 
@@ -53,7 +53,7 @@ def paper_case_window(*, moments_measured: bool = True, noise_mgal: float = 1.0,
     """
     from pier_monitor.core.model.ground_motion import synthetic_near_fault
     from pier_monitor.core.model.solver import simulate
-    from pier_monitor.core.ingest.window import MeasuredWindow
+    from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
 
     geometry, truth = table1_model()
     gm = ground_motion if ground_motion is not None else synthetic_near_fault(pga_mps2=8.0)
@@ -61,17 +61,20 @@ def paper_case_window(*, moments_measured: bool = True, noise_mgal: float = 1.0,
     rng = np.random.default_rng(seed)
     sigma_a = noise_mgal * 1e-5
     snr = np.max(np.abs(resp.a)) / sigma_a
-    sigma = {"ag": sigma_a}
+    sigma = {}
     noisy = {}
     for key, arr in (("a", resp.a), ("v", resp.v), ("x", resp.x), ("f", resp.moment)):
         s = sigma_a if key == "a" else float(np.max(np.abs(arr))) / snr
         sigma[key] = np.full(geometry.n_levels, s)
         noisy[key] = arr + s * rng.standard_normal(arr.shape)
+    nan = np.full(geometry.n_levels, np.nan)
+    noise = NoiseModel(ag=sigma_a, a=sigma["a"], v=sigma["v"], x=sigma["x"], dx=nan, dv=nan,
+                       f=sigma["f"] if moments_measured else nan)
     window = MeasuredWindow(
         pier_id="table1", event_id=f"paper_case_seed{seed}", geometry=geometry,
         design=truth.scaled(k1=0.5, k2=0.5, fy=0.1, c=0.5), t=resp.t,
         ag=resp.ag + sigma_a * rng.standard_normal(resp.ag.shape), a=noisy["a"], v=noisy["v"],
-        x=noisy["x"], moments=noisy["f"] if moments_measured else None, sigma=sigma)
+        x=noisy["x"], moments=noisy["f"] if moments_measured else None, noise=noise)
     return window, truth, resp
 
 
@@ -90,7 +93,7 @@ def realistic_case_window(*, seed: int = 0, acc_noise_mps2: float = 1e-3,
     from pier_monitor.core.ingest.fusion import fuse_acceleration_displacement
     from pier_monitor.core.model.ground_motion import synthetic_near_fault
     from pier_monitor.core.model.solver import simulate
-    from pier_monitor.core.ingest.window import MeasuredWindow
+    from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
 
     geometry, truth = table1_model()
     gm = synthetic_near_fault(pga_mps2=8.0)
@@ -112,9 +115,10 @@ def realistic_case_window(*, seed: int = 0, acc_noise_mps2: float = 1e-3,
         pier_id="table1", event_id=f"realistic_seed{seed}", geometry=geometry,
         design=truth.scaled(k1=0.5, k2=0.5, fy=0.1, c=0.5), t=padded.t[sel], ag=ag_meas[sel],
         a=a_meas[sel], v=fused.v[sel], x=fused.x[sel], moments=None,
-        sigma={"ag": acc_noise_mps2, "a": np.full(geometry.n_levels, acc_noise_mps2),
-               "v": fused.v_sigma[sel].mean(axis=0), "x": fused.x_sigma[sel].mean(axis=0),
-               "dx": np.sqrt(step * np.mean(fused.dx_sigma[sel] ** 2, axis=0)),
-               "dv": np.sqrt(step * np.mean(fused.dv_sigma[sel] ** 2, axis=0))},
+        noise=NoiseModel(ag=acc_noise_mps2, a=np.full(geometry.n_levels, acc_noise_mps2),
+                         v=fused.v_sigma[sel].mean(axis=0), x=fused.x_sigma[sel].mean(axis=0),
+                         dx=np.sqrt(step * np.mean(fused.dx_sigma[sel] ** 2, axis=0)),
+                         dv=np.sqrt(step * np.mean(fused.dv_sigma[sel] ** 2, axis=0)),
+                         f=np.full(geometry.n_levels, np.nan)),
         report={"fusion_q": fused.q.tolist()})
     return window, truth, truth_resp
