@@ -33,6 +33,7 @@ import torch
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.identify.damage import IdentificationResult, build_sections, overall_state
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments, yield_test
+from pier_monitor.core.identify.field import FieldSettings, fit_field
 from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.model.link_model import angle_matrix
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
@@ -95,6 +96,9 @@ class PinnSettings:
     seed : int
     yield_score : float
         Threshold of the yield test (see :func:`~pier_monitor.core.identify.equation_error.yield_test`).
+    field_settings : FieldSettings
+        The reconstruction of windows from field networks (levels without a displacement
+        sensor, or without any sensor).
     """
 
     pair_stride: int = 1
@@ -119,6 +123,7 @@ class PinnSettings:
     device: str = "auto"
     seed: int = 0
     yield_score: float = 50.0
+    field_settings: FieldSettings = field(default_factory=FieldSettings)
 
     def validate(self) -> None:
         """Raise :class:`InputDataError` naming the first bad setting."""
@@ -168,6 +173,8 @@ class IdentificationRun:
     reproduced: Reproduced
     initial: SpringParameters
     history: dict[str, list[Any]] = field(default_factory=dict)
+    #: parameters after each stage of the identification, in order (the last is the result)
+    stages: dict[str, SpringParameters] = field(default_factory=dict)
 
 
 def resolve_device(name: str) -> torch.device:
@@ -406,6 +413,8 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
     torch.manual_seed(settings.seed)
     np.random.seed(settings.seed)
     geometry = window.geometry
+    if not window.coverage.is_full:
+        return _identify_field(window, settings, baseline_k1, t_start, device)
 
     # starting point
     if settings.init == "equation_error":
@@ -524,7 +533,34 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
     reproduced = Reproduced(t=window.t.copy(), a=rep["a"], v=rep["v"], x=rep["x"], theta=theta,
                             moment=rep["f"])
     return IdentificationRun(result=result, reproduced=reproduced, initial=init,
-                             history=history)
+                             history=history, stages={"equation_error": init, "pinn": params})
+
+
+def _identify_field(window: MeasuredWindow, settings: PinnSettings,
+                    baseline_k1: np.ndarray | None, t_start: float,
+                    device: torch.device) -> IdentificationRun:
+    """A window from a field network: the springs and the unmeasured motion reconstructed
+    from the physics (:func:`~pier_monitor.core.identify.field.fit_field`)."""
+    fit = fit_field(window, settings.field_settings)
+    params = fit.params
+    sections = build_sections(window.geometry, params, fit.theta, fit.yielded,
+                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1)
+    wall = time.perf_counter() - t_start
+    stage_names = list(fit.stages)
+    result = IdentificationResult(
+        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
+        overall_state=overall_state(sections), window_start_s=float(window.t[0]),
+        window_duration_s=window.duration_s, epochs=0, final_loss=float("nan"),
+        wall_time_s=wall, device=str(device), success=True,
+        message=(f"{window.coverage.layout} layout: springs reconstructed from the physics "
+                 f"({', '.join(stage_names)})"),
+        settings=asdict(settings), history={})
+    a = np.where(window.coverage.acceleration, window.a, np.gradient(fit.v, window.dt, axis=0))
+    reproduced = Reproduced(t=window.t.copy(), a=a, v=fit.v, x=fit.x, theta=fit.theta,
+                            moment=fit.moment)
+    return IdentificationRun(result=result, reproduced=reproduced,
+                             initial=fit.stages[stage_names[0]], history={},
+                             stages=dict(fit.stages))
 
 
 def _detach(p: PairTensors) -> PairTensors:

@@ -208,11 +208,25 @@ def test_missing_and_unmapped_sensors_are_reported(synthetic):
     assert len(windows) == 2
 
 
-def test_level_without_usable_sensor_is_an_error_naming_it(synthetic):
+def test_level_without_displacement_sensor_is_reported_unmeasured(synthetic):
     rec = synthetic.recording
     sensors = {k: v for k, v in rec.sensors.items()
                if not (rec.config.sensor(k).level == 2 and rec.config.sensor(k).kind == "displacement")}
-    with pytest.raises(IngestError, match="level 2: no usable displacement sensor"):
+    windows, report = ingest_recording(Recording(rec.config, sensors))
+    assert len(windows) == 2
+    assert "unmeasured_level" in report.codes("level 2")
+    for w in windows:
+        assert w.coverage.acceleration.all()
+        assert w.coverage.displacement.tolist() == [True, False, True, True]
+        assert w.coverage.highpass_hz > 0 and np.isnan(w.noise.x[1])
+        assert np.isfinite(w.x).all()  # level 2: integrated from its acceleration
+
+
+def test_nothing_measured_above_the_foundation_is_an_error_naming_it(synthetic):
+    rec = synthetic.recording
+    sensors = {k: v for k, v in rec.sensors.items() if rec.config.sensor(k).level == 0}
+    with pytest.raises(IngestError, match="no usable acceleration or displacement sensor at any "
+                                          "level above the foundation"):
         ingest_recording(Recording(rec.config, sensors))
 
 

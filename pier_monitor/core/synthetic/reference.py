@@ -11,7 +11,7 @@ from pier_monitor.core.model.config import PierGeometry, SpringParameters
 if TYPE_CHECKING:  # pragma: no cover
     from pier_monitor.core.model.ground_motion import GroundMotion
     from pier_monitor.core.model.solver import Response
-    from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
+    from pier_monitor.core.ingest.window import MeasuredWindow
 
 __all__ = ["table1_model", "paper_case_window", "realistic_case_window"]
 
