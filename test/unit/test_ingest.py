@@ -92,7 +92,7 @@ def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
     rec = synthetic.recording
     stream = StreamIngest(rec.config)
     for t_ns, config in rec.config_updates:  # on ROS: the latched configuration topic
-        stream.update_config(t_ns, config)
+        stream.update_config(config, t_ns)
     got = []
     n = next(iter(rec.sensors.values())).n_samples
     for b0 in range(0, n, 40):
