@@ -23,6 +23,7 @@ keeps running.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -179,7 +180,7 @@ class IdentifierNode(Node):
         self._diagnostics = damage_diagnostics(fields, self._now_ns())
         self._diag_pub.publish(self._diagnostics)
 
-    def _progress(self, event_id: str) -> Any:
+    def _progress(self, event_id: str) -> Callable[[Progress], None]:
         every = self._param("progress_every")
 
         def publish(p: Progress) -> None:

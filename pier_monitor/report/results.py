@@ -31,7 +31,8 @@ from pier_monitor.core.errors import BagError, InputDataError, ReportError
 from pier_monitor.core.fileio import atomic_path
 from pier_monitor.core.identify.damage import DamageState, IdentificationResult
 from pier_monitor.core.ingest.recording import NS_PER_S, ns_to_stamp, stamp_to_ns
-from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
+from pier_monitor.core.model.config import SpringParameters
 
 from ._common import check_same_pier, ensure_dir
 from .figures import (RunLike, check_window_matches, plot_hysteresis, plot_profile,
@@ -314,11 +315,11 @@ class _RunWithResult:
     result: IdentificationResult
 
     @property
-    def reproduced(self) -> Any:
+    def reproduced(self) -> Reproduced:
         return self.run.reproduced
 
     @property
-    def initial(self) -> Any:
+    def initial(self) -> SpringParameters:
         return self.run.initial
 
     @property
