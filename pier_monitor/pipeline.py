@@ -21,7 +21,6 @@ from pier_monitor.core.ingest import IngestReport, IngestSettings, ingest_record
 from pier_monitor.core.model.config import PierConfig
 from pier_monitor.events import EventOutcome, identify_window
 from pier_monitor.pinn import PinnSettings, Progress
-from pier_monitor.report._common import ensure_dir
 from pier_monitor.report.store import ResultsStore
 
 __all__ = ["BagOutcome", "identify_bag"]
@@ -70,7 +69,7 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings
         before it are written).
     """
     bag = Path(bag)
-    store = ResultsStore(ensure_dir(out_dir))
+    store = ResultsStore(out_dir).create()
     recording = read_bag(bag, config=config)
     if not recording.sensors:
         raise BagError(f"{bag}: the bag holds no samples of any sensor of the configuration's "

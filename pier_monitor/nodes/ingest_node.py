@@ -24,7 +24,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
-from typing import Any, Union
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from pier_monitor_msgs.msg import MainshockWindow, SampleBlock
@@ -48,7 +48,7 @@ __all__ = ["IngestNode", "main"]
 
 #: Work items: a sensor message ``("sample", sensor_id, type, raw bytes)`` or a configuration
 #: update ``("config", topic, config)``.
-_Item = Union[tuple[str, str, type, bytes], tuple[str, str, PierConfig]]
+_Item = tuple[str, str, type, bytes] | tuple[str, str, PierConfig]
 
 
 class IngestNode(Node):

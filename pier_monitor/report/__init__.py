@@ -1,4 +1,5 @@
-"""Reports of identifications: result files, damage-state mcap, figures, comparisons.
+"""Reports of identifications: result files, damage-state mcap, figures, comparisons, and
+the results store (:class:`~pier_monitor.report.store.ResultsStore`).
 
 Imports core, bags and Matplotlib (Agg canvas, no pyplot); never torch or rclpy, so that it
 can run wherever results are read.  Figures take an identification run by its attributes

@@ -64,6 +64,17 @@ class ResultsStore:
     def __repr__(self) -> str:
         return f"ResultsStore({str(self.root)!r})"
 
+    def create(self) -> ResultsStore:
+        """Create the results root (with its parents) now; returns the store.
+
+        Raises
+        ------
+        ReportError
+            Naming the root, if it cannot be created or written.
+        """
+        ensure_dir(self.root)
+        return self
+
     # -- paths ------------------------------------------------------------------------------
     def event_dir(self, event_id: str) -> Path:
         """``<root>/<event_id>``.
