@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rosbags.rosbag2 import Reader
 
 from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml
 from pier_monitor.core.errors import InputDataError, PierMonitorError
@@ -122,8 +123,6 @@ def read_bag(path: str | Path, *, pier_id: str | None = None,
     ConfigError
         The embedded configuration is invalid (names the bag and topic).
     """
-    from rosbags.rosbag2 import Reader
-
     path = Path(path)
     _check_path(path)
     typestore = get_typestore()
@@ -187,8 +186,6 @@ def read_bag(path: str | Path, *, pier_id: str | None = None,
 
 def read_bag_config(path: str | Path, *, pier_id: str | None = None) -> PierConfig:
     """Only the pier configuration embedded in a bag (see :func:`read_bag` for errors)."""
-    from rosbags.rosbag2 import Reader
-
     path = Path(path)
     _check_path(path)
     try:
