@@ -22,6 +22,7 @@ flagged as not identifiable.
 
 from __future__ import annotations
 
+import json
 import logging
 import time
 from dataclasses import asdict, dataclass, field
@@ -124,6 +125,10 @@ class PinnSettings:
     seed: int = 0
     yield_score: float = 50.0
     field_settings: FieldSettings = field(default_factory=FieldSettings)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON form (lists for tuples), as a result records it."""
+        return json.loads(json.dumps(asdict(self)))
 
     def validate(self) -> None:
         """Raise :class:`InputDataError` naming the first bad setting."""
@@ -528,7 +533,7 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
         window_duration_s=window.duration_s, epochs=epoch, final_loss=loss_val,
         wall_time_s=wall, device=str(device), success=True,
         message=f"trained {epoch} epochs on {n_pairs} pairs",
-        settings=asdict(settings),
+        settings=settings.as_dict(),
         history={k: v for k, v in history.items() if k != "params"})
     reproduced = Reproduced(t=window.t.copy(), a=rep["a"], v=rep["v"], x=rep["x"], theta=theta,
                             moment=rep["f"])
@@ -554,7 +559,7 @@ def _identify_field(window: MeasuredWindow, settings: PinnSettings,
         wall_time_s=wall, device=str(device), success=True,
         message=(f"{window.coverage.layout} layout: springs reconstructed from the physics "
                  f"({', '.join(stage_names)})"),
-        settings=asdict(settings), history={})
+        settings=settings.as_dict(), history={})
     a = np.where(window.coverage.acceleration, window.a, np.gradient(fit.v, window.dt, axis=0))
     reproduced = Reproduced(t=window.t.copy(), a=a, v=fit.v, x=fit.x, theta=fit.theta,
                             moment=fit.moment)
