@@ -85,7 +85,7 @@ def test_principal_direction_is_estimated_within_one_degree(synthetic):
         est = w.report["principal_direction_deg"]
         diff = (est - synthetic.truth.principal_direction_deg + 90.0) % 180.0 - 90.0
         assert abs(diff) < 1.0
-    assert "principal_direction" in report.codes("event1")
+    assert "principal_direction" in report.codes(windows[0].event_id)
 
 
 def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
@@ -208,12 +208,17 @@ def test_missing_and_unmapped_sensors_are_reported(synthetic):
     assert len(windows) == 2
 
 
-def test_level_without_usable_sensor_is_an_error_naming_it(synthetic):
+def test_level_without_usable_sensor_fails_its_events_naming_the_sensors(synthetic):
     rec = synthetic.recording
     sensors = {k: v for k, v in rec.sensors.items()
                if not (rec.config.sensor(k).level == 2 and rec.config.sensor(k).kind == "displacement")}
-    with pytest.raises(IngestError, match="level 2: no usable displacement sensor"):
-        ingest_recording(Recording(rec.config, sensors))
+    windows, report = ingest_recording(Recording(rec.config, sensors))
+    assert windows == []
+    assert [o.status for o in report.outcomes] == ["failed", "failed"]
+    for o in report.outcomes:
+        assert o.failure.startswith("level 2: no usable displacement sensor during ")
+        assert "l2_wire_n: no samples at all" in o.failure
+        assert "l2_wire_w: no samples at all" in o.failure
 
 
 def test_rate_contradicting_the_configuration_is_reported(synthetic):

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from pier_monitor.core.ingest.clean import clean_recording
 from pier_monitor.core.ingest.events import detect_events, trigger_threshold
-from pier_monitor.core.ingest.levels import level_motion
+from pier_monitor.core.ingest.levels import level_motion_partial
+from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
 from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
 from pier_monitor.core.ingest.window import MeasuredWindow
@@ -25,6 +25,10 @@ class StreamIngest:
     buffered samples are ingested exactly as :func:`ingest_recording` would and the window is
     returned by :meth:`push`.  Nothing received is dropped: samples stay in the buffer until
     they are older than ``buffer_s``, and :attr:`received` counts them.
+
+    :attr:`report` gathers every finding once, and in ``report.outcomes`` the outcome of
+    every event handed on: with its window, or failed (the reason names the level, sensors,
+    time and cause) or cut by the end of the stream.
     """
 
     def __init__(self, config: PierConfig, settings: IngestSettings | None = None,
@@ -112,28 +116,29 @@ class StreamIngest:
         quiet_ns = int((s.merge_gap_s + s.context_s) * NS_PER_S)
         scratch = IngestReport()
         cleaned, t0, n, rate = clean_recording(found, s, scratch)
-        ag_xy = level_motion(cleaned, "acceleration", 0, slice(0, n), False)
+        ag_xy = level_motion_partial(cleaned, "acceleration", 0, slice(0, n))
         if ag_xy is None:
             return []
-        spans = detect_events(np.nan_to_num(ag_xy), rate, trigger_threshold(self.config, s), s)
+        spans = detect_events(ag_xy, rate, trigger_threshold(self.config, s), s)
         end_ns = found.end_ns
-        ready = [(w0, w1) for w0, w1 in spans
-                 if t0 + int(w0 * NS_PER_S / rate) > self._done_until_ns
-                 and (final or end_ns - (t0 + int(w1 * NS_PER_S / rate)) >= quiet_ns)]
+        ready = [sp for sp in spans
+                 if t0 + int(sp.start * NS_PER_S / rate) > self._done_until_ns
+                 and (final or end_ns - (t0 + int(sp.end * NS_PER_S / rate)) >= quiet_ns)]
         if not ready:
             return []
-        windows, report = ingest_recording(self._recording(), s)
+        _, report = ingest_recording(self._recording(), s)
         # each ingest reports on the whole buffer: keep every finding once
-        seen = set(self.report.events)
-        self.report.events.extend(e for e in report.events if e not in seen)
+        seen = set(self.report.findings)
+        self.report.findings.extend(f for f in report.findings if f not in seen)
         self.report.checks.update(report.checks)
         out = []
-        for w in windows:
-            if w.start_time_ns <= self._done_until_ns:
+        for outcome in report.outcomes:
+            if outcome.start_ns <= self._done_until_ns:
                 continue
-            w_end = w.start_time_ns + int(round(w.duration_s * NS_PER_S))
-            if not final and end_ns - w_end < quiet_ns:
+            if not final and end_ns - outcome.end_ns < quiet_ns:
                 continue
-            out.append(w)
-            self._done_until_ns = w.start_time_ns
+            self.report.outcomes.append(outcome)
+            self._done_until_ns = outcome.start_ns
+            if outcome.window is not None:
+                out.append(outcome.window)
         return out
