@@ -33,20 +33,18 @@ from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_
 from pier_monitor.core.model.config import SensorSpec
 
 __all__ = ["CleanSensor", "clean_sensor", "bridge_gaps", "block_starts", "block_median", "nan_median",
-           "data_rate_hz", "rate_problem", "runs_of", "fmt_si", "MISSING", "OUT_OF_RANGE", "GLITCH"]
+           "data_rate_hz", "rate_problem", "runs_of", "fmt_recorded", "MISSING", "OUT_OF_RANGE", "GLITCH"]
 
 #: Why a sample of a :class:`CleanSensor` is NaN (``flags``); 0 = a good sample.
 MISSING, OUT_OF_RANGE, GLITCH = 1, 2, 3
 _CAUSE_CODES = {MISSING: "gap", OUT_OF_RANGE: "out_of_range", GLITCH: "glitch"}
 _MAX_FINDINGS = 10  # per sensor and code; later ones are summed up in one
-_SI_UNITS = {"acceleration": ("m/s²", 1.0), "velocity": ("mm/s", 1e3),
-             "displacement": ("mm", 1e3)}
 
 
-def fmt_si(value: float, kind: str) -> str:
-    """A value of a kind (SI) in a readable unit, signed: ``+500.0 mm``."""
-    unit, scale = _SI_UNITS[kind]
-    return f"{value * scale:+.4g} {unit}"
+def fmt_recorded(spec: SensorSpec, axis: int, delta_si: float) -> str:
+    """A change along one channel (SI, pier frame) as the sensor recorded it: ``+500 mm``."""
+    recorded = delta_si * spec.gain * spec.signs[axis] / spec.si_factor
+    return f"{recorded:+.4g} {spec.unit}"
 
 
 @dataclass(frozen=True)
@@ -360,13 +358,13 @@ def _increment_glitches(cs: CleanSensor, j: int, starts: np.ndarray, settings: I
                 peak = r[k1]
                 x[s0:s1 + 1] = np.nan
                 cs.flags[s0:s1 + 1, j] = GLITCH
-                cs.details[(j, s0)] = (f"jumps by {fmt_si(peak, spec.kind)} and back "
+                cs.details[(j, s0)] = (f"jumps by {fmt_recorded(spec, j, peak)} and back "
                                        f"{(s1 - s0 + 1) / cs.rate_hz:.3f} s later")
             k = int(np.searchsorted(out, end, side="right"))
             continue
         x[k1 + 1:] -= r[k1]
         t_jump = cs.time_ns(k1 + 1)
-        report.add("offset_jump", cs.channel(j), f"jumps by {fmt_si(r[k1], spec.kind)} at "
+        report.add("offset_jump", cs.channel(j), f"jumps by {fmt_recorded(spec, j, r[k1])} at "
                    f"{fmt_time(t_jump)} and does not jump back within "
                    f"{settings.glitch_max_s:g} s: offset after the jump corrected",
                    t_jump, t_jump, "repaired")

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from pier_monitor.core.ingest.clean import GLITCH, CleanSensor, block_median, fmt_si, runs_of
+from pier_monitor.core.ingest.clean import GLITCH, CleanSensor, block_median, fmt_recorded, runs_of
 from pier_monitor.core.ingest.levels import HorizontalChannel, availability_patterns, horizontal_channels
 from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_span
 
@@ -207,7 +207,8 @@ def _mark_glitches(chans: list[HorizontalChannel], m: np.ndarray, e: np.ndarray,
         for r, c in zip(rows, worst[rows]):  # what the finding will say
             chans[c].sensor.details.setdefault(
                 (chans[c].column, int(r)),
-                f"departs by {fmt_si(res[r, c], 'acceleration')} from the other "
+                f"departs by {fmt_recorded(chans[c].sensor.spec, chans[c].column, res[r, c])} "
+                f"from the other "
                 f"accelerometers at level {level}")
     for c, ch in enumerate(chans):
         cs = ch.sensor
