@@ -42,7 +42,11 @@ def _noise_si(ch: HorizontalChannel) -> float:
 
 def check_units(cleaned: list[CleanSensor], report: IngestReport) -> None:
     """Exclude accelerometers whose level of motion is off by a unit factor from the others
-    at the same level (e.g. recorded in g but declared m/s²)."""
+    at the same level (e.g. recorded in g but declared m/s²).
+
+    The level of motion is a robust spread (1.4826 × the median absolute deviation of each
+    horizontal channel), so that a few wild samples (glitches, found later) do not make a
+    sensor look like one in the wrong unit."""
     by_level: dict[int, list[tuple[CleanSensor, float]]] = {}
     for cs in cleaned:
         if cs.spec.kind != "acceleration":
@@ -52,8 +56,9 @@ def check_units(cleaned: list[CleanSensor], report: IngestReport) -> None:
         if len(h) == 0 or sel.sum() < 10:
             continue
         vals = cs.values[sel][:, h]
-        rms = float(np.sqrt(np.mean((vals - vals.mean(axis=0)) ** 2)))
-        by_level.setdefault(cs.spec.level, []).append((cs, rms))
+        mad = np.median(np.abs(vals - np.median(vals, axis=0)), axis=0)
+        spread = float(1.4826 * np.sqrt(np.mean(mad ** 2)))
+        by_level.setdefault(cs.spec.level, []).append((cs, spread))
     for level, items in by_level.items():
         if len(items) < 3:
             continue
@@ -64,9 +69,11 @@ def check_units(cleaned: list[CleanSensor], report: IngestReport) -> None:
                 cs.usable[:, :] = False
                 n = cs.values.shape[0]
                 report.add("implausible_units", cs.spec.sensor_id,
-                           f"horizontal RMS {r:.4g} m/s² is {ratio:.3g}x the median of the other "
-                           f"accelerometers at level {level} ({med:.4g} m/s²); declared unit "
-                           f"{cs.spec.unit!r} looks wrong; sensor excluded",
+                           f"horizontal motion {r:.4g} m/s² (robust spread) is {ratio:.3g}x the "
+                           f"median of the accelerometers at level {level} ({med:.4g} m/s²); "
+                           f"declared unit "
+                           f"{cs.spec.unit!r} looks wrong (or the sensor does not feel the motion); "
+                           "sensor excluded",
                            cs.time_ns(0), cs.time_ns(n - 1), "excluded")
 
 
