@@ -108,6 +108,35 @@ def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
         assert a.geometry == b.geometry and a.design == b.design
         for key in ("ag", "a", "v", "x"):
             np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+        assert a == b  # every field: noise model, coverage, report with its findings
+    assert [o.status for o in stream.report.outcomes] == ["ingested", "ingested"]
+
+
+def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested):
+    rec = synthetic.recording
+    r = rec.sensors["l2_wire_n"]
+    keep = (r.time_ns < synthetic.truth.runs[1].window_start_ns + 5 * 10**9) | (
+        r.time_ns >= synthetic.truth.runs[1].window_start_ns + 7 * 10**9)  # 2 s gap in run 2
+    bad = with_sensor(rec, "l2_wire_n", time_ns=r.time_ns[keep], data=r.data[keep],
+                      sample_index=r.sample_index[keep])
+    stream = StreamIngest(rec.config)
+    for t_ns, config in rec.config_updates:
+        stream.update_config(t_ns, config)
+    got = []
+    for b0 in range(0, next(iter(bad.sensors.values())).n_samples + 400, 400):
+        for sid, s in bad.sensors.items():
+            sel = slice(np.searchsorted(s.time_ns, rec.start_ns + b0 * 5_000_000),
+                        np.searchsorted(s.time_ns, rec.start_ns + (b0 + 400) * 5_000_000))
+            got += stream.push(sid, s.time_ns[sel], s.data[sel], s.sample_index[sel])
+    got += stream.flush()
+    outcomes = stream.report.outcomes
+    assert [o.status for o in outcomes] == ["ingested", "failed"]
+    assert got == [outcomes[0].window]
+    np.testing.assert_array_equal(got[0].x, ingested[0][0].x)
+    assert outcomes[1].failure.startswith("level 2: the usable displacement channels "
+                                          "(l2_wire_w.x) all point one way")
+    assert "l2_wire_n: gap_excluded (400 missing samples (2.00 s)" in outcomes[1].failure
+    assert "gap_excluded" in [f.code for f in stream.report.findings]
 
 
 def test_no_event_is_a_normal_result(synthetic):

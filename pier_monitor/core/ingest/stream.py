@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.ingest.events import detect_events, trigger_threshold
 from pier_monitor.core.ingest.levels import level_motion_partial
 from pier_monitor.core.ingest.prepare import clean_recording
@@ -63,12 +64,20 @@ class StreamIngest:
 
         Returns the windows of events that have just ended (usually none).
         """
-        if sensor_id not in {sp.sensor_id for sp in self.config.sensors}:
-            self.report.add("unmapped_sensor", sensor_id, "sample block of a sensor that is "
-                            "not in the sensor map; ignored")
-            return []
         time_ns = np.asarray(time_ns, dtype=np.int64).reshape(-1)
-        data = np.asarray(data, dtype=float).reshape(time_ns.size, -1)
+        if sensor_id not in {sp.sensor_id for sp in self.config.sensors}:
+            if not any(f.code == "unmapped_sensor" and f.where == sensor_id
+                       for f in self.report.findings):
+                t = int(time_ns[0]) if time_ns.size else 0
+                self.report.add("unmapped_sensor", sensor_id, "sample blocks of a sensor that "
+                                "is not in the sensor map; ignored", t, t)
+            return []
+        n_axes = len(self.config.sensor(sensor_id).axes)
+        data = np.asarray(data, dtype=float)
+        if data.size != time_ns.size * n_axes:
+            raise InputDataError(f"sensor {sensor_id}: block of {time_ns.size} times but "
+                                 f"{data.size} values; expected {time_ns.size} x {n_axes}")
+        data = data.reshape(time_ns.size, n_axes)
         if sample_index is None:
             start = self._count.get(sensor_id, 0)
             sample_index = np.arange(start, start + time_ns.size, dtype=np.int64)
