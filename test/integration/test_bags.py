@@ -313,6 +313,25 @@ def test_bag_without_configuration_is_a_bag_error(written, tmp_path):
         read_bag(bag)
 
 
+@pytest.mark.parametrize("pier_id, shown", [("../../x", r"'\.\./\.\./x' holds '\./'"),
+                                            ("/abs/y", r"'/abs/y' holds '/'"),
+                                            ("", r"expected a non-empty string")])
+def test_bag_whose_configuration_has_an_unsafe_pier_id_is_refused(written, tmp_path, pier_id,
+                                                                  shown):
+    import yaml
+
+    from pier_monitor.core.errors import ConfigError
+
+    types = get_typestore().types
+    raw = written["expected"].config.as_dict()
+    raw["pier_id"] = pier_id
+    bag = tmp_path / "evil"
+    _write_raw_rosbag2(bag, [("/evil/pier_configuration", "std_msgs/msg/String",
+                              [(1, types["std_msgs/msg/String"](data=yaml.safe_dump(raw)))])])
+    with pytest.raises(ConfigError, match=rf"evil:/evil/pier_configuration: pier_id: {shown}"):
+        read_bag(bag)
+
+
 def test_unknown_message_type_on_a_sensor_topic_is_a_bag_error(written, tmp_path):
     types = get_typestore().types
     config = written["expected"].config
