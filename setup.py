@@ -8,10 +8,13 @@ setup(
     name=package_name,
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*"]),
+    # the El Centro 1940 record (pier_monitor/data), read with importlib.resources
+    package_data={package_name: ["data/*.txt"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", sorted(glob("config/*.yaml"))),
+        ("share/" + package_name + "/launch", sorted(glob("launch/*.launch.py"))),
     ],
     # Runtime dependencies (ROS 2 wheels, torch, numpy, ...) are pinned in requirements.txt
     # and declared for rosdep in package.xml; setuptools only needs itself here.
@@ -22,9 +25,13 @@ setup(
     description="Physics-informed damage identification of reinforced-concrete bridge piers",
     license="Apache-2.0",
     python_requires=">=3.10",
+    # The node executables, as ament_python packages declare them: colcon installs them into
+    # lib/pier_monitor (setup.cfg), where `ros2 run pier_monitor ingest` looks.
     entry_points={
         "console_scripts": [
             "pier-monitor = pier_monitor.cli:main",
+            "ingest = pier_monitor.nodes.ingest_node:main",
+            "identifier = pier_monitor.nodes.identifier_node:main",
         ],
     },
 )

@@ -22,7 +22,7 @@ from pier_monitor_msgs.msg import PierDamageState
 from rclpy.executors import SingleThreadedExecutor
 
 from pier_monitor.bags import get_typestore
-from pier_monitor.nodes.identifier_node import DAMAGE_STATE_QOS
+from pier_monitor.nodes.qos import DAMAGE_STATE_QOS
 
 TYPE = "pier_monitor_msgs/msg/PierDamageState"
 

@@ -24,7 +24,7 @@ from rclpy.executors import SingleThreadedExecutor
 
 from pier_monitor import __version__
 from pier_monitor.bags.types import message_definition
-from pier_monitor.nodes.ingest_node import LATCHED_QOS, SENSOR_QOS
+from pier_monitor.nodes.qos import LATCHED_QOS, SENSOR_QOS
 
 _LATCHED_SUFFIXES = ("/damage_state", "/pier_configuration", "/mainshock_window")
 

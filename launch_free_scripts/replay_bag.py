@@ -27,7 +27,7 @@ import rclpy
 from rclpy.duration import Duration
 
 from pier_monitor.bags import SAMPLE_BLOCK, get_typestore
-from pier_monitor.nodes.ingest_node import LATCHED_QOS, SENSOR_QOS
+from pier_monitor.nodes.qos import LATCHED_QOS, SENSOR_QOS
 
 
 def message_class(type_name: str) -> type:

@@ -8,14 +8,25 @@ as JSON.
 from __future__ import annotations
 
 import platform
+import tempfile
 import time
-from typing import Any, Callable
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from pier_monitor.core.model.ground_motion import synthetic_near_fault
-from pier_monitor.core.synthetic.reference import table1_model
-from pier_monitor.core.model.solver import HAVE_NUMBA, simulate
+from pier_monitor.bags import read_bag
+from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
+from pier_monitor.core.identify.damage import ductility_factors
+from pier_monitor.core.ingest import StreamIngest, ingest_recording
+from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.core.model.config import SpringParameters
+from pier_monitor.core.model.ground_motion import GroundMotion, el_centro_1940, synthetic_near_fault
+from pier_monitor.core.model.solver import HAVE_NUMBA, Response, simulate
+from pier_monitor.core.synthetic.reference import (paper_case_window, realistic_case_window,
+                                                   table1_model)
+from pier_monitor.pinn import PinnSettings, identify
 
 __all__ = ["bench_solver", "bench_ingest", "bench_paper", "bench_more", "run_identification_case",
            "score_identification", "SUITES", "DEFAULT_SUITES", "format_table"]
@@ -37,7 +48,7 @@ def bench_solver(repeats: int = 5) -> list[dict[str, Any]]:
         t0 = time.perf_counter()
         simulate(geometry, params, gm.acc, gm.dt)
         times.append(time.perf_counter() - t0)
-    df = np.abs(resp.theta).max(axis=0) / params.yield_angles
+    df = ductility_factors(resp.theta, params)
     return [{
         "case": "solver_table1_60s_1ms",
         "description": "Newmark linear acceleration, 60 s at dt 1 ms, Table 1 pier, PGA 8 m/s2",
@@ -54,7 +65,8 @@ def _errors_pct(estimate: np.ndarray, truth: np.ndarray) -> list[float]:
     return [float(v) for v in 100.0 * (np.asarray(estimate) / np.asarray(truth) - 1.0)]
 
 
-def score_identification(case: str, window: Any, truth: Any, resp: Any, settings: Any = None,
+def score_identification(case: str, window: MeasuredWindow, truth: SpringParameters,
+                         resp: Response, settings: PinnSettings | None = None,
                          **info: Any) -> dict[str, Any]:
     """Identify one window with known truth and score it (errors in % of the truth).
 
@@ -62,9 +74,6 @@ def score_identification(case: str, window: Any, truth: Any, resp: Any, settings
     that truly yield (true DF >= 1); ``k2_fy_df2`` is the largest |error| of ``k2``/``fy``
     over springs with true DF >= 2.
     """
-    from pier_monitor.core.identify.damage import ductility_factors
-    from .pinn import PinnSettings, identify
-
     settings = settings or PinnSettings(seed=info.get("seed", 0))
     run = identify(window, settings)
     result = run.result
@@ -104,11 +113,9 @@ def score_identification(case: str, window: Any, truth: Any, resp: Any, settings
 
 
 def run_identification_case(case: str, *, moments_measured: bool, seed: int,
-                            noise_mgal: float = 1.0, ground_motion: Any = None,
+                            noise_mgal: float = 1.0, ground_motion: GroundMotion | None = None,
                             window_s: tuple[float, float] = (30.0, 50.0)) -> dict[str, Any]:
     """The paper's case (Table 1 pier, 1 mgal noise, paper starting point), scored."""
-    from pier_monitor.core.synthetic.reference import paper_case_window
-
     window, truth, resp = paper_case_window(moments_measured=moments_measured,
                                             noise_mgal=noise_mgal, seed=seed,
                                             ground_motion=ground_motion, window_s=window_s)
@@ -127,9 +134,6 @@ def bench_paper(seeds: int = 5) -> list[dict[str, Any]]:
 
 def bench_more() -> list[dict[str, Any]]:
     """The paper's Tables 4-5 and the realistic-noise case (one seed each)."""
-    from pier_monitor.core.model.ground_motion import synthetic_near_fault
-    from pier_monitor.core.synthetic.reference import realistic_case_window
-
     out = []
     for noise in (0.1, 10.0):
         for moments in (True, False):
@@ -144,8 +148,6 @@ def bench_more() -> list[dict[str, Any]]:
             f"long_duration_{'moments' if moments else 'no_moments'}", moments_measured=moments,
             seed=0, ground_motion=long_gm, window_s=(30.0, 60.0)))
     # a real record: El Centro 1940 NS at its own scale (PGA 3.07 m/s², DF 4.8 / 3.7 / 0.95)
-    from pier_monitor.core.model.ground_motion import el_centro_1940
-
     for moments in (True, False):
         out.append(run_identification_case(
             f"el_centro_1940_{'moments' if moments else 'no_moments'}", moments_measured=moments,
@@ -159,13 +161,6 @@ def bench_more() -> list[dict[str, Any]]:
 def bench_ingest() -> list[dict[str, Any]]:
     """Read and ingest the synthetic E-Defense-style bag (150 s, 32 sensors, 80 channels at
     200 Hz, two events): whole, and streamed in 0.1 s blocks."""
-    import tempfile
-    from pathlib import Path
-
-    from .bags import read_bag
-    from .bags.synthetic_bag import write_synthetic_edefense_bag
-    from pier_monitor.core.ingest import StreamIngest, ingest_recording
-
     with tempfile.TemporaryDirectory() as tmp:
         info = write_synthetic_edefense_bag(Path(tmp) / "bench.mcap", fmt="mcap", seed=0)
         t0 = time.perf_counter()
@@ -176,7 +171,7 @@ def bench_ingest() -> list[dict[str, Any]]:
     t_ingest = time.perf_counter() - t0
     stream = StreamIngest(rec.config)
     for t_ns, cfg in rec.config_updates:
-        stream.update_config(t_ns, cfg)
+        stream.update_config(cfg, t_ns)
     n = max(r.n_samples for r in rec.sensors.values())
     t0 = time.perf_counter()
     got = []

@@ -14,18 +14,27 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pier_monitor.bags.synthetic_bag import SyntheticBagInfo, write_synthetic_edefense_bag
+from pier_monitor.bench import DEFAULT_SUITES, SUITES, format_table
 from pier_monitor.core.errors import PierMonitorError, ReportError
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .bags.synthetic_bag import SyntheticBagInfo
-    from .pipeline import BagOutcome
+from pier_monitor.core.identify.damage import ductility_factors
+from pier_monitor.core.model.config import load_config
+from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
+from pier_monitor.core.model.solver import simulate
+from pier_monitor.core.synthetic.reference import table1_model
+from pier_monitor.pinn import PinnSettings
+from pier_monitor.pipeline import BagOutcome, identify_bag
+from pier_monitor.progress import TrainingProgress
+from pier_monitor.report._common import format_df
+from pier_monitor.report.compare import write_comparison
+from pier_monitor.report.results import load_result
 
 __all__ = ["main", "build_parser"]
 
@@ -130,50 +139,26 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--train-seed", type=int, default=0, help="seed of the training")
     parser.add_argument("--max-epochs", type=int, default=None,
                         help="epoch limit of the training (default: the benchmarked setting)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true",
+                        help="no training progress (a bar on a terminal, else a line every 10 s)")
 
 
 def _identify(bag: Path, out: Path, args: argparse.Namespace,
-              pier: Path | None = None) -> "BagOutcome":
-    """Run :func:`pier_monitor.pipeline.identify_bag` with a progress bar on stderr."""
-    from .pinn import PinnSettings
-    from .pipeline import identify_bag
-
+              pier: Path | None = None) -> BagOutcome:
+    """Run :func:`pier_monitor.pipeline.identify_bag` with training progress on stderr."""
     settings = PinnSettings(device=args.device, seed=args.train_seed)
     if args.max_epochs is not None:
         settings.max_epochs = args.max_epochs
         settings.min_epochs = min(settings.min_epochs, args.max_epochs)
-    bars: dict[str, object] = {}
-
-    def progress(event_id: str, p: object) -> None:
-        if args.no_progress:
-            return
-        from tqdm import tqdm
-
-        bar = bars.get(event_id)
-        if bar is None:
-            bar = bars[event_id] = tqdm(total=p.max_epochs, desc=f"training {event_id}",
-                                        unit="epoch", file=sys.stderr, leave=False)
-        bar.update(1)
-        if p.epoch % 25 == 0:
-            bar.set_postfix(loss=f"{p.loss:.3g}", k1_1=f"{p.k1[0]:.4g}")
-
-    config = None
-    if pier is not None:
-        from pier_monitor.core.model.config import load_config
-
-        config = load_config(pier)
-    try:
+    config = load_config(pier) if pier is not None else None
+    if args.no_progress:
+        return identify_bag(bag, out, settings=settings, config=config)
+    with TrainingProgress() as progress:
         return identify_bag(bag, out, settings=settings, progress=progress, config=config)
-    finally:
-        for bar in bars.values():
-            bar.close()
 
 
-def _print_outcome(outcome: "BagOutcome") -> None:
+def _print_outcome(outcome: BagOutcome) -> None:
     """Per-event tables of the identified sections."""
-    from .report._common import format_df
-
     if not outcome.events:
         print(f"{outcome.bag}: no mainshock found; nothing to identify")
     for ev in outcome.events:
@@ -218,11 +203,6 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _simulate_npz(args: argparse.Namespace) -> int:
-    from pier_monitor.core.model.config import load_config
-    from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
-    from pier_monitor.core.synthetic.reference import table1_model
-    from pier_monitor.core.model.solver import simulate
-
     if args.pier is not None:
         cfg = load_config(args.pier)
         geometry, params, name = cfg.geometry, cfg.design, cfg.pier_id
@@ -239,7 +219,7 @@ def _simulate_npz(args: argparse.Namespace) -> int:
         gm = gm.scaled_to_pga(args.pga)
     output_dt = 1.0 / args.output_rate
     resp = simulate(geometry, params, gm.acc, gm.dt, output_dt=output_dt)
-    df = np.abs(resp.theta).max(axis=0) / params.yield_angles
+    df = ductility_factors(resp.theta, params)
     try:
         args.out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -259,8 +239,6 @@ def _simulate_npz(args: argparse.Namespace) -> int:
 
 
 def _simulate_bag(args: argparse.Namespace) -> int:
-    from .bags.synthetic_bag import write_synthetic_edefense_bag
-
     if (args.ground_motion is not None or args.scale is not None or args.pga is not None
             or args.column is not None):
         raise PierMonitorError(
@@ -273,7 +251,7 @@ def _simulate_bag(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bag_summary(info: "SyntheticBagInfo") -> str:
+def _bag_summary(info: SyntheticBagInfo) -> str:
     """Readable overview of a written synthetic bag."""
     s = info.summary()
     lines = [f"wrote {s['format']} bag {s['bag']}: {s['messages']} messages, "
@@ -291,8 +269,6 @@ def _bag_summary(info: "SyntheticBagInfo") -> str:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from .bench import DEFAULT_SUITES, SUITES, format_table
-
     names = list(SUITES) if args.all else (args.suite or list(DEFAULT_SUITES))
     unknown = [n for n in names if n not in SUITES]
     if unknown:
@@ -310,10 +286,6 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from .bags.synthetic_bag import write_synthetic_edefense_bag
-
-    import shutil
-
     args.out.mkdir(parents=True, exist_ok=True)
     bag = args.out / "edefense_synthetic"
     # the demo's own output of an earlier run
@@ -326,8 +298,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     outcome = _identify(bag, args.out / "identified", args)
     _print_outcome(outcome)
     if len(outcome.events) >= 2:
-        from .report.compare import write_comparison
-
         first, last = outcome.events[0], outcome.events[-1]
         comparison, paths = write_comparison(first.result, last.result, args.out,
                                              sources=(str(first.out_dir), str(last.out_dir)))
@@ -339,9 +309,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from .report.compare import write_comparison
-    from .report.results import load_result
-
     a, b = load_result(args.result_a), load_result(args.result_b)
     out = args.out
     if out is None:

@@ -1,38 +1,29 @@
-"""Offline identification of a bag: read → ingest → PINN → results (SPEC §8).
+"""Offline identification of a bag: read → ingest → one event at a time (SPEC §8).
 
-``identify_bag`` is what ``pier-monitor identify BAG`` runs: every detected event of the
-bag becomes one results directory ``<out>/<event_id>/`` with ``window.npz`` (the raw window,
-written before training starts, so that a crash loses no event), ``result.json``,
-``damage_state.mcap`` and the figures.  Events are identified in time order; from the second
-on, ``k1`` changes are relative to the first event of the same pier.
+``identify_bag`` is what ``pier-monitor identify BAG`` runs: every detected event of the bag
+goes through :func:`pier_monitor.events.identify_window`, the step the live identifier node
+runs as well, into one results directory ``<out>/<event_id>/`` with ``window.npz`` (stored
+before training starts, so that a crash loses no event), ``damage_state.mcap``, the figures
+and ``result.json``.  Events are identified in time order; the baseline of each is the
+earliest earlier result of the same pier in ``out`` (:class:`~pier_monitor.report.store.
+ResultsStore`): in an empty directory, the first event of the bag.
 """
 
 from __future__ import annotations
 
-import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
-from pier_monitor.core.model.config import PierConfig
-from pier_monitor.core.identify.damage import IdentificationResult
-from pier_monitor.core.errors import BagError, ReportError
+from pier_monitor.bags import read_bag
+from pier_monitor.core.errors import BagError, IdentificationError
 from pier_monitor.core.ingest import IngestReport, IngestSettings, ingest_recording
-from pier_monitor.core.ingest.window import MeasuredWindow, save_window
+from pier_monitor.core.model.config import PierConfig
+from pier_monitor.events import EventOutcome, identify_window
+from pier_monitor.pinn import PinnSettings, Progress
+from pier_monitor.report.store import ResultsStore
 
-__all__ = ["EventOutcome", "BagOutcome", "identify_bag"]
-
-log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class EventOutcome:
-    """One identified event."""
-
-    window: MeasuredWindow
-    result: IdentificationResult
-    out_dir: Path
-    window_file: Path
+__all__ = ["BagOutcome", "identify_bag"]
 
 
 @dataclass(frozen=True)
@@ -44,10 +35,10 @@ class BagOutcome:
     ingest_report: IngestReport
 
 
-def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: object | None = None,
+def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings | None = None,
                  ingest_settings: IngestSettings | None = None,
                  config: PierConfig | None = None,
-                 progress: Callable[[str, object], None] | None = None) -> BagOutcome:
+                 progress: Callable[[str, Progress], None] | None = None) -> BagOutcome:
     """Identify every event of a bag and write one results directory per event.
 
     Parameters
@@ -56,7 +47,8 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: object | Non
         A rosbag2 directory or a plain ``.mcap`` file written by pier_monitor (or with the
         same topics and the configuration inside).
     out_dir : str or Path
-        Results root; created when missing.
+        Results root (a :class:`~pier_monitor.report.store.ResultsStore`); created when
+        missing.
     settings : PinnSettings, optional
         Identification settings (default: the benchmarked ones).
     ingest_settings : IngestSettings, optional
@@ -73,18 +65,11 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: object | Non
     ReportError
         ``out_dir`` cannot be written (names it).
     IdentificationError
-        Training failed (the window file stays on disk).
+        A training failed (its ``failed.json`` and the window stay on disk; the events
+        before it are written).
     """
-    from .bags import read_bag
-    from .pinn import PinnSettings, identify
-    from .report.results import write_results
-
     bag = Path(bag)
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise ReportError(f"{out}: cannot create the results directory: {err.strerror}") from err
+    store = ResultsStore(out_dir).create()
     recording = read_bag(bag, config=config)
     if not recording.sensors:
         raise BagError(f"{bag}: the bag holds no samples of any sensor of the configuration's "
@@ -92,24 +77,13 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: object | Non
     windows, report = ingest_recording(recording, ingest_settings)
     settings = settings or PinnSettings()
     events = []
-    first: IdentificationResult | None = None
     for window in windows:
-        event_dir = out / window.event_id
-        try:
-            event_dir.mkdir(parents=True, exist_ok=True)
-        except OSError as err:
-            raise ReportError(f"{event_dir}: cannot create the results directory: "
-                              f"{err.strerror}") from err
-        window_file = save_window(window, event_dir / "window.npz")
         callback = None
         if progress is not None:
             callback = (lambda p, eid=window.event_id: progress(eid, p))
-        baseline = first.params.k1 if first is not None else None
-        run = identify(window, settings, callback=callback, baseline_k1=baseline)
-        paths = write_results(run, window, event_dir, baseline=first)
-        result = IdentificationResult.load_json(paths.result_json)
-        if first is None:
-            first = result
-        events.append(EventOutcome(window=window, result=result, out_dir=event_dir,
-                                   window_file=window_file))
+        outcome = identify_window(window, settings, store, progress=callback)
+        if not outcome.result.success:
+            raise IdentificationError(f"{window.event_id}: {outcome.result.message} (window and "
+                                      f"failure record in {outcome.out_dir})")
+        events.append(outcome)
     return BagOutcome(bag=bag, events=tuple(events), ingest_report=report)

@@ -22,8 +22,8 @@ import setuptools
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def read_data_files(setup_py: Path) -> list[tuple[str, list[str]]]:
-    """Return the ``data_files`` argument that ``setup_py`` passes to ``setup()``."""
+def read_setup_kwargs(setup_py: Path) -> dict[str, Any]:
+    """Return the keyword arguments that ``setup_py`` passes to ``setup()`` (nothing built)."""
     captured: dict[str, Any] = {}
     real_setup = setuptools.setup
     setuptools.setup = lambda **kwargs: captured.update(kwargs)
@@ -34,7 +34,12 @@ def read_data_files(setup_py: Path) -> list[tuple[str, list[str]]]:
     finally:
         os.chdir(cwd)
         setuptools.setup = real_setup
-    return captured.get("data_files", [])
+    return captured
+
+
+def read_data_files(setup_py: Path) -> list[tuple[str, list[str]]]:
+    """Return the ``data_files`` argument that ``setup_py`` passes to ``setup()``."""
+    return read_setup_kwargs(setup_py).get("data_files", [])
 
 
 def link_data_files(setup_py: Path, prefix: Path) -> int:

@@ -1,8 +1,7 @@
 """Fixtures shared by all tests: an isolated ROS 2 graph per test, child processes, messages.
 
-rclpy is imported inside the fixtures only, so that collecting the unit tests (and any
-import-boundary test) never loads it.  Helpers that test modules use directly live in
-``ros_helpers`` (imported by that name, never as ``conftest``).
+rclpy is imported inside the fixtures only, so that collecting the unit tests never loads it.
+The helpers the fixtures hand out live in ``ros_helpers.py``.
 """
 
 from __future__ import annotations
@@ -15,7 +14,6 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
-
 from ros_helpers import MSG_DIR, REPO_ROOT, RosProcess, assert_fields_equal
 
 # ROS_DOMAIN_IDs 1..101 (0 is everyone's default). Each test takes the next one; the start

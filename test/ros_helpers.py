@@ -1,8 +1,9 @@
-"""Helpers shared by the test modules: the repository's paths, child processes with a
-deadline-bound line reader, field-by-field message comparison.
+"""Helpers shared by the tests that run real ROS 2 processes (the fixtures are in conftest.py).
 
-Test modules import this module by its own name (the test folder is on ``sys.path``), never
-``conftest``, whose name several folders share.
+Child processes with a line reader, field-by-field message comparison, and the pieces of a
+live pier graph: parameters files, a test-side listener, starting and stopping nodes.
+rclpy and the message packages are imported inside the helpers, so that importing this
+module (conftest.py does, also for the unit tests) never loads them.
 """
 
 from __future__ import annotations
@@ -11,17 +12,25 @@ import math
 import numbers
 import os
 import selectors
+import signal
 import subprocess
+import threading
 import time
 from pathlib import Path
 from typing import Any
 
 import pytest
-
-__all__ = ["REPO_ROOT", "MSG_DIR", "RosProcess", "assert_fields_equal"]
+import yaml
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 MSG_DIR = REPO_ROOT / "msg_defs" / "msg"
+
+NS = "/edefense_pier"
+TINY = {"device": "cpu", "seed": 0, "max_epochs": 6, "min_epochs": 1}
+RUN_SCRIPT = ("import runpy, sys; script = sys.argv.pop(1); sys.argv[0] = script; "
+              "runpy.run_path(script, run_name='__main__')")
+RUN_MODULE = ("import runpy, sys; module = sys.argv.pop(1); "
+              "runpy.run_module(module, run_name='__main__', alter_sys=True)")
 
 
 class RosProcess:
@@ -106,3 +115,86 @@ def assert_fields_equal(expected: Any, actual: Any, path: str = "msg") -> None:
             f"{path}: expected {len(expected)} elements, got {len(actual)}")
         for i, (want, got) in enumerate(zip(expected, actual)):
             assert_fields_equal(want, got, f"{path}[{i}]")
+
+
+def params_file(path: Path, data: Path, **identifier: Any) -> Path:
+    """A ros__parameters file for both nodes (tiny training unless overridden).
+
+    Both nodes use ``data/windows`` as their window directory unless ``window_dir`` is given
+    for the identifier.
+    """
+    ident = {"window_dir": str(data / "windows"), "results_dir": str(data / "results"),
+             "progress_every": 1, "write_figures": False, **TINY, **identifier}
+    path.write_text(yaml.safe_dump({
+        "/**/ingest": {"ros__parameters": {"window_dir": str(data / "windows"),
+                                           "status_period_s": 0.5}},
+        "/**/identifier": {"ros__parameters": ident}}))
+    return path
+
+
+class Listener:
+    """Test-side subscriptions, spun on a background SingleThreadedExecutor."""
+
+    def __init__(self, context: Any, typestore: Any) -> None:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from pier_monitor_msgs.msg import IdentificationProgress, PierDamageState
+        from rclpy.executors import SingleThreadedExecutor
+
+        from pier_monitor.nodes.qos import DAMAGE_STATE_QOS
+
+        self.node = rclpy.create_node("test_listener", context=context)
+        self.states: list[Any] = []
+        self.status: list[Any] = []
+        self.diagnostics: list[Any] = []
+        self.progress: list[Any] = []
+
+        def on_state(raw: bytes) -> None:  # knows only the .msg text: rosbags decodes
+            self.states.append(typestore.deserialize_cdr(
+                raw, "pier_monitor_msgs/msg/PierDamageState"))
+
+        self.node.create_subscription(PierDamageState, f"{NS}/damage_state", on_state,
+                                      DAMAGE_STATE_QOS, raw=True)
+        self.node.create_subscription(DiagnosticArray, f"{NS}/ingest_status",
+                                      self.status.append, 10)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics",
+                                      self.diagnostics.append, 50)
+        self.node.create_subscription(
+            IdentificationProgress, f"{NS}/identification_progress", self.progress.append, 100)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def wait(self, predicate: Any, timeout_s: float, what: str) -> None:
+        deadline = time.monotonic() + timeout_s
+        while not predicate():
+            if time.monotonic() > deadline:
+                pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
+            time.sleep(0.1)
+
+    def ingest_values(self) -> dict[str, str]:
+        for arr in reversed(self.status):
+            for st in arr.status:
+                if st.name.endswith("/ingest"):
+                    return {kv.key: kv.value for kv in st.values}
+        return {}
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.thread.join(timeout=5)
+        self.node.destroy_node()
+
+
+def start_node(spawn_python: Any, module: str, params: Path, *extra: str) -> Any:
+    """Start ``pier_monitor.nodes.<module>`` in the pier namespace; wait for its READY."""
+    child = spawn_python(RUN_MODULE, f"pier_monitor.nodes.{module}", "--ros-args", "-r",
+                         f"__ns:={NS}", "--params-file", str(params), *extra)
+    child.wait_for_line("READY", 30)
+    return child
+
+
+def interrupt(child: Any, timeout_s: float = 20.0) -> int:
+    """Ctrl-C a child; its exit code."""
+    child.popen.send_signal(signal.SIGINT)
+    return child.popen.wait(timeout=timeout_s)

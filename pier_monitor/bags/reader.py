@@ -30,6 +30,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import yaml
+from mcap import records
+from mcap.stream_reader import StreamReader
+from rosbags.rosbag2 import Reader
 
 from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml
 from pier_monitor.core.errors import InputDataError, PierMonitorError
@@ -142,9 +145,6 @@ def _storage_files(path: Path) -> list[Path]:
 
 def _recover(path: Path, err: Exception) -> _Recovered:
     """Read a damaged mcap bag in order up to the damage; :class:`BagError` if nothing can be."""
-    from mcap import records
-    from mcap.stream_reader import StreamReader
-
     failure = f"{path}: cannot read bag, it may be truncated or corrupt: {type(err).__name__}: {err}"
     files = _storage_files(path)
     if not files or any(f.suffix.lower() != ".mcap" for f in files):
@@ -210,8 +210,6 @@ def read_bag(path: str | Path, *, pier_id: str | None = None,
     ConfigError
         The embedded configuration is invalid (names the bag and topic).
     """
-    from rosbags.rosbag2 import Reader
-
     path = Path(path)
     _check_path(path)
     try:
@@ -282,8 +280,6 @@ def _recording(path: Path, connections: list[Any], messages: Any, pier_id: str |
 
 def read_bag_config(path: str | Path, *, pier_id: str | None = None) -> PierConfig:
     """Only the pier configuration embedded in a bag (see :func:`read_bag` for errors)."""
-    from rosbags.rosbag2 import Reader
-
     path = Path(path)
     _check_path(path)
     try:

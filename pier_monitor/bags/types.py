@@ -12,19 +12,19 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
+from rosbags.typesys import Stores, get_types_from_msg
+from rosbags.typesys import get_typestore as _get_typestore
+from rosbags.typesys.store import Typestore
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.ingest.recording import NS_PER_S
+from pier_monitor.core.ingest.recording import sample_times_ns, stamp_to_ns
+from pier_monitor.core.model.config import SensorSpec
 from pier_monitor.core.resources import find_share_path
 
 from .errors import BagError
-
-if TYPE_CHECKING:
-    from pier_monitor.core.model.config import SensorSpec
-    from rosbags.typesys.store import Typestore
 
 __all__ = [
     "MSG_PACKAGE",
@@ -87,8 +87,7 @@ def sample_block_arrays(msg: Any, spec: SensorSpec, where: str, rate_hz: float |
         raise InputDataError(f"{where}: {data.size} values are not a whole number of samples "
                              f"of {n_axes} axes")
     n = data.size // n_axes
-    stamp_ns = int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
-    times = stamp_ns + np.rint(np.arange(n) * (NS_PER_S / rate)).astype(np.int64)
+    times = sample_times_ns(stamp_to_ns(msg.header.stamp.sec, msg.header.stamp.nanosec), n, rate)
     index = int(msg.first_sample_index) + np.arange(n, dtype=np.int64)
     return times, index, data.reshape(n, n_axes), rate
 
@@ -125,8 +124,6 @@ def get_typestore() -> Typestore:
     BagError
         If the message definitions cannot be found or parsed.
     """
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore as _get_typestore
-
     msg_dir = find_msg_dir()
     typestore = _get_typestore(Stores.ROS2_KILTED)
     types: dict[str, Any] = {}

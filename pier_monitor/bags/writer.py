@@ -28,12 +28,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Literal
 
+import mcap.writer
 import numpy as np
 import yaml
+from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
+                                QosTime)
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+from rosbags.rosbag2.metadata import dump_qos_v9
 
 from pier_monitor import __version__
 from pier_monitor.core.model.config import PierConfig, SensorSpec
-from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord, ns_to_stamp
 
 from .errors import BagError
 from .types import KIND_CODES, SAMPLE_BLOCK, STRING, get_typestore, message_definition
@@ -48,7 +54,6 @@ CONFIG_TOPIC_NAME = "pier_configuration"
 #: Default length of a SampleBlock, s.
 DEFAULT_BLOCK_S = 0.1
 _CONFIG_LEAD_NS = 1_000_000  # the configuration is logged 1 ms before the first sample
-_INT32_MAX = 2 ** 31 - 1
 
 
 @dataclass(frozen=True)
@@ -101,10 +106,7 @@ def _size_on_disk(path: Path) -> int:
     return path.stat().st_size
 
 
-def _qos(latched: bool) -> Any:
-    from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
-                                    QosReliability, QosTime)
-
+def _qos(latched: bool) -> Qos:
     zero = QosTime(0, 0)
     return Qos(history=QosHistory.KEEP_LAST, depth=1 if latched else 100,
                reliability=QosReliability.RELIABLE,
@@ -143,9 +145,10 @@ def _block_bounds(rec: SensorRecord, block_len: int, where: str) -> list[tuple[i
 
 
 def _stamp(typestore: Any, t_ns: int, where: str) -> Any:
-    sec, nanosec = divmod(int(t_ns), NS_PER_S)
-    if not -_INT32_MAX - 1 <= sec <= _INT32_MAX:
-        raise BagError(f"{where}: time {t_ns} ns does not fit a builtin_interfaces/Time")
+    try:
+        sec, nanosec = ns_to_stamp(t_ns)
+    except InputDataError as err:
+        raise BagError(f"{where}: {err}") from err
     return typestore.types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec)
 
 
@@ -191,8 +194,6 @@ def _messages(recording: Recording, block_s: float) -> tuple[list[tuple[str, str
 
 def _write_rosbag2(path: Path, conns: list[tuple[str, str, bool]],
                    msgs: list[tuple[int, int, bytes]], compress: bool) -> None:
-    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
-
     typestore = get_typestore()
     writer = Writer(path, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP)
     if compress:
@@ -207,12 +208,10 @@ def _write_rosbag2(path: Path, conns: list[tuple[str, str, bool]],
 
 def _write_mcap(path: Path, conns: list[tuple[str, str, bool]],
                 msgs: list[tuple[int, int, bytes]], compress: bool) -> None:
-    from mcap.writer import CompressionType, Writer
-    from rosbags.rosbag2.metadata import dump_qos_v9
-
-    compression = CompressionType.ZSTD if compress else CompressionType.NONE
+    kind = mcap.writer.CompressionType
+    compression = kind.ZSTD if compress else kind.NONE
     with path.open("xb") as stream:
-        writer = Writer(stream, compression=compression)
+        writer = mcap.writer.Writer(stream, compression=compression)
         writer.start(profile="ros2", library=f"pier_monitor {__version__}")
         schemas: dict[str, int] = {}
         channels = []

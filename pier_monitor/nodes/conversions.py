@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -19,10 +19,15 @@ from pier_monitor_msgs.msg import (IdentificationProgress, MainshockWindow, Pier
 from sensor_msgs.msg import Imu
 
 from pier_monitor.bags.types import sample_block_arrays
-from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml
-from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.ingest.recording import NS_PER_S
+from pier_monitor.core.errors import InputDataError, PierMonitorError
+from pier_monitor.core.identify.damage import DamageState
+from pier_monitor.core.ingest.recording import ns_to_stamp, stamp_to_ns
 from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
+from pier_monitor.core.model.config import (PierConfig, PierGeometry, SensorSpec,
+                                            SpringParameters)
+
+if TYPE_CHECKING:  # the type only: the ingest node does not load the PINN (torch)
+    from pier_monitor.pinn import Progress
 
 __all__ = [
     "MessageError",
@@ -34,9 +39,8 @@ __all__ = [
     "window_from_msg",
     "fill_message",
     "damage_state_msg",
-    "failed_state_fields",
     "progress_msg",
-    "section_diagnostics",
+    "damage_diagnostics",
     "DIAGNOSTIC_LEVELS",
 ]
 
@@ -52,17 +56,29 @@ DIAGNOSTIC_LEVELS = {
     SectionState.STATE_DAMAGED: DiagnosticStatus.ERROR,
     SectionState.STATE_UNKNOWN: DiagnosticStatus.STALE,
 }
-_STATE_NAMES = {0: "intact", 1: "suspicious", 2: "damaged", 3: "unknown"}
+#: MainshockWindow noise fields and the NoiseModel attribute each carries.
+_NOISE_FIELDS = (("acceleration_sigma", "a"), ("velocity_sigma", "v"),
+                 ("displacement_sigma", "x"), ("displacement_increment_sigma", "dx"),
+                 ("velocity_increment_sigma", "dv"), ("moment_sigma", "f"))
 
 
-def time_to_ns(stamp: Any) -> int:
+def time_to_ns(stamp: Time) -> int:
     """``builtin_interfaces/Time`` → ns since the epoch."""
-    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+    return stamp_to_ns(stamp.sec, stamp.nanosec)
 
 
 def ns_to_time(t_ns: int) -> Time:
-    """ns since the epoch → ``builtin_interfaces/Time``."""
-    sec, nanosec = divmod(int(t_ns), NS_PER_S)
+    """ns since the epoch → ``builtin_interfaces/Time``.
+
+    Raises
+    ------
+    MessageError
+        If the time does not fit the message (int32 seconds).
+    """
+    try:
+        sec, nanosec = ns_to_stamp(t_ns)
+    except InputDataError as err:
+        raise MessageError(str(err)) from err
     return Time(sec=sec, nanosec=nanosec)
 
 
@@ -106,8 +122,41 @@ def imu_arrays(msg: Imu, spec: SensorSpec, topic: str) -> tuple[np.ndarray, np.n
             np.array([[a.x, a.y, a.z]], dtype=np.float64))
 
 
-def window_to_msg(window: MeasuredWindow, config: PierConfig) -> MainshockWindow:
-    """The MainshockWindow message of a window (its configuration as YAML)."""
+def _levels(values: Any, n: int, where: str, name: str, empty: float | None = None
+            ) -> np.ndarray:
+    """A per-level field as (N,) floats; an empty sequence is ``empty`` at every level."""
+    arr = np.asarray(values, dtype=float)
+    if arr.size == 0 and empty is not None:
+        return np.full(n, empty)
+    if arr.shape != (n,):
+        raise MessageError(f"{where}: {name} has {arr.size} values, expected n_levels = {n}")
+    return arr
+
+
+def _series(values: Any, m: int, n: int, where: str, name: str) -> np.ndarray:
+    """A T x N row-major field as a (T, N) array."""
+    arr = np.asarray(values, dtype=float)
+    if arr.size != m * n:
+        raise MessageError(f"{where}: {name} has {arr.size} values, expected "
+                           f"n_samples x n_levels = {m * n}")
+    return arr.reshape(m, n)
+
+
+def window_to_msg(window: MeasuredWindow, config: PierConfig | None = None) -> MainshockWindow:
+    """The MainshockWindow message of a window: every field of it, nothing lost.
+
+    Parameters
+    ----------
+    window : MeasuredWindow
+        The window.
+    config : PierConfig, optional
+        The configuration in force for the event, sent along as YAML for reference.
+
+    Raises
+    ------
+    MessageError
+        If the window's start does not fit a ``builtin_interfaces/Time``.
+    """
     msg = MainshockWindow()
     msg.header.stamp = ns_to_time(window.start_time_ns)
     msg.header.frame_id = window.pier_id
@@ -116,57 +165,67 @@ def window_to_msg(window: MeasuredWindow, config: PierConfig) -> MainshockWindow
     msg.sample_rate_hz = 1.0 / window.dt
     msg.n_levels = window.n_levels
     msg.n_samples = int(window.t.size)
-    msg.level_heights_m = np.cumsum(window.geometry.section_heights_m).tolist()
+    msg.time_s = window.t.tolist()
+    msg.section_heights_m = window.geometry.section_heights_m.tolist()
     msg.masses_kg = window.geometry.masses_kg.tolist()
+    for name in ("k1", "k2", "fy", "c"):
+        setattr(msg, f"design_{name}", getattr(window.design, name).tolist())
     msg.ground_acceleration = window.ag.tolist()
     msg.acceleration = window.a.ravel().tolist()
     msg.velocity = window.v.ravel().tolist()
     msg.displacement = window.x.ravel().tolist()
-    for name, key in (("acceleration_sigma", "a"), ("velocity_sigma", "v"),
-                      ("displacement_sigma", "x")):
-        setattr(msg, name, getattr(window.noise, key).tolist())
-    msg.pier_config_yaml = config.to_yaml()
-    msg.report = json.dumps({"report": window.report, "noise": window.noise.as_dict(),
-                             "coverage": window.coverage.as_dict(),
-                             "t0_s": float(window.t[0])})
+    msg.moments = [] if window.moments is None else window.moments.ravel().tolist()
+    noise = window.noise
+    msg.ground_acceleration_sigma = noise.ag
+    for field, key in _NOISE_FIELDS:
+        setattr(msg, field, getattr(noise, key).tolist())
+    msg.gain_sigma_rel = noise.gain_rel
+    msg.acceleration_measured = [bool(v) for v in window.coverage.acceleration]
+    msg.displacement_measured = [bool(v) for v in window.coverage.displacement]
+    msg.highpass_hz = window.coverage.highpass_hz
+    msg.pier_config_yaml = "" if config is None else config.to_yaml()
+    msg.report = json.dumps(window.report)
     return msg
 
 
 def window_from_msg(msg: MainshockWindow, topic: str = "mainshock_window") -> MeasuredWindow:
-    """A MeasuredWindow from its message (geometry and design from the embedded YAML).
+    """The MeasuredWindow of a message (the inverse of :func:`window_to_msg`).
 
     Raises
     ------
     MessageError
-        Naming the topic and field when sizes or the configuration are inconsistent.
+        Naming the topic, the event and the field when sizes or values are inconsistent.
     """
     where = f"{topic}: MainshockWindow {msg.event_id!r}"
+    n, m = int(msg.n_levels), int(msg.n_samples)
     try:
-        config = config_from_yaml(msg.pier_config_yaml, source=where)
-        extra = json.loads(msg.report) if msg.report else {}
-        n, m = int(msg.n_levels), int(msg.n_samples)
-        rate = float(msg.sample_rate_hz)
-        if not (rate > 0 and math.isfinite(rate)):
-            raise MessageError(f"{where}: sample_rate_hz {rate}")
-        shape = (m, n)
-        arrays = {}
-        for key, name in (("a", "acceleration"), ("v", "velocity"), ("x", "displacement")):
-            arr = np.asarray(getattr(msg, name), dtype=float)
-            if arr.size != m * n:
-                raise MessageError(f"{where}: {name} has {arr.size} values, expected "
-                                   f"n_samples x n_levels = {m * n}")
-            arrays[key] = arr.reshape(shape)
-        noise = NoiseModel.from_dict(extra["noise"]) if "noise" in extra else None
-        coverage = Coverage.from_dict(extra["coverage"]) if "coverage" in extra else None
-        t = float(extra.get("t0_s", 0.0)) + np.arange(m) / rate
+        report = json.loads(msg.report) if msg.report else {}
+        if not isinstance(report, dict):
+            raise MessageError(f"{where}: report is not a JSON object")
+        t = np.asarray(msg.time_s, dtype=float)
+        if t.size != m:
+            raise MessageError(f"{where}: time_s has {t.size} values, expected n_samples = {m}")
+        level = lambda name, empty=None: _levels(getattr(msg, name), n, where, name, empty)
+        series = lambda name: _series(getattr(msg, name), m, n, where, name)
+        noise = NoiseModel(ag=float(msg.ground_acceleration_sigma),
+                           gain_rel=float(msg.gain_sigma_rel),
+                           **{key: level(field, math.nan) for field, key in _NOISE_FIELDS})
+        coverage = None
+        if len(msg.acceleration_measured) or len(msg.displacement_measured):
+            coverage = Coverage(
+                np.asarray(level("acceleration_measured"), dtype=bool),
+                np.asarray(level("displacement_measured"), dtype=bool), float(msg.highpass_hz))
         return MeasuredWindow(
-            pier_id=msg.pier_id, event_id=msg.event_id, geometry=config.geometry,
-            design=config.design, t=t, ag=np.asarray(msg.ground_acceleration, dtype=float),
-            a=arrays["a"], v=arrays["v"], x=arrays["x"], noise=noise, coverage=coverage,
-            start_time_ns=time_to_ns(msg.header.stamp), report=extra.get("report", {}))
+            pier_id=msg.pier_id, event_id=msg.event_id,
+            geometry=PierGeometry(level("section_heights_m"), level("masses_kg")),
+            design=SpringParameters(*(level(f"design_{k}") for k in ("k1", "k2", "fy", "c"))),
+            t=t, ag=np.asarray(msg.ground_acceleration, dtype=float), a=series("acceleration"),
+            v=series("velocity"), x=series("displacement"),
+            moments=series("moments") if len(msg.moments) else None, noise=noise,
+            coverage=coverage, start_time_ns=time_to_ns(msg.header.stamp), report=report)
     except MessageError:
         raise
-    except Exception as err:  # config/shape errors of the core name the field
+    except (PierMonitorError, ValueError) as err:  # the core's checks name the field
         raise MessageError(f"{where}: {err}") from err
 
 
@@ -201,27 +260,7 @@ def damage_state_msg(fields: dict[str, Any]) -> PierDamageState:
     return fill_message(PierDamageState(), fields)
 
 
-def failed_state_fields(window: MeasuredWindow, message: str, device: str, stamp_ns: int
-                        ) -> dict[str, Any]:
-    """Damage-state fields of a failed identification: every section STATE_UNKNOWN."""
-    nan = float("nan")
-    z = np.concatenate(([0.0], np.cumsum(window.geometry.section_heights_m)))
-    sections = [{"index": i, "z_bottom_m": float(z[i]), "z_top_m": float(z[i + 1]),
-                 "k1": nan, "k2": nan, "fy": nan, "c": nan, "yield_angle_rad": nan,
-                 "max_angle_rad": nan, "ductility_factor": nan, "k1_change_pct": nan,
-                 "k2_identifiable": False, "fy_identifiable": False,
-                 "state": int(SectionState.STATE_UNKNOWN)} for i in range(window.n_levels)]
-    sec, nanosec = divmod(int(stamp_ns), NS_PER_S)
-    ws, wn = divmod(int(window.start_time_ns), NS_PER_S)
-    return {"header": {"stamp": {"sec": sec, "nanosec": nanosec}, "frame_id": window.pier_id},
-            "pier_id": window.pier_id, "event_id": window.event_id,
-            "window_start": {"sec": ws, "nanosec": wn},
-            "window_duration_s": float(window.duration_s), "sections": sections,
-            "overall_state": int(SectionState.STATE_UNKNOWN), "epochs": 0, "final_loss": nan,
-            "wall_time_s": 0.0, "device": device, "message": message, "success": False}
-
-
-def progress_msg(event_id: str, progress: Any, stamp_ns: int) -> IdentificationProgress:
+def progress_msg(event_id: str, progress: Progress, stamp_ns: int) -> IdentificationProgress:
     """IdentificationProgress of a :class:`pier_monitor.pinn.Progress`."""
     msg = IdentificationProgress()
     msg.header.stamp = ns_to_time(stamp_ns)
@@ -241,9 +280,21 @@ def _fmt(value: float) -> str:
     return "nan" if value is None or not math.isfinite(value) else f"{value:.6g}"
 
 
-def section_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray:
-    """``/diagnostics``: one status per section (OK/WARN/ERROR = intact/suspicious/damaged,
-    STALE when there is no diagnosis), values k1, its change from baseline and DF."""
+def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray:
+    """``/diagnostics`` of a damage state: one status per section, then the identifier's.
+
+    A section is OK / WARN / ERROR when intact / suspicious / damaged, STALE when there is no
+    diagnosis; its values are k1, its change from the baseline, DF, k2, fy and c.  The
+    identifier's status is OK, or ERROR when the identification failed, with the event,
+    epochs and device.
+
+    Parameters
+    ----------
+    fields : dict
+        :func:`pier_monitor.report.results.damage_state_fields` of the result.
+    stamp_ns : int
+        ``header.stamp``, ns since the Unix epoch.
+    """
     arr = DiagnosticArray()
     arr.header.stamp = ns_to_time(stamp_ns)
     pier = fields["pier_id"]
@@ -252,7 +303,7 @@ def section_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArra
         st.level = DIAGNOSTIC_LEVELS[s["state"]]
         st.name = f"pier_monitor/{pier}/section_{s['index'] + 1}"
         st.hardware_id = pier
-        state = _STATE_NAMES[s["state"]]
+        state = DamageState(s["state"]).name.lower()
         if fields["success"]:
             st.message = (f"{state}: DF {_fmt(s['ductility_factor'])}, k1 change "
                           f"{_fmt(s['k1_change_pct'])} % (event {fields['event_id']})")
@@ -268,4 +319,13 @@ def section_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArra
             ("fy", _fmt(s["fy"]) if s["fy_identifiable"] else "not identifiable"),
             ("c", _fmt(s["c"])))]
         arr.status.append(st)
+    st = DiagnosticStatus()
+    st.name = f"pier_monitor/{pier}/identifier"
+    st.hardware_id = pier
+    st.level = DiagnosticStatus.OK if fields["success"] else DiagnosticStatus.ERROR
+    st.message = fields["message"][:500] or "ok"
+    st.values = [KeyValue(key="event_id", value=fields["event_id"]),
+                 KeyValue(key="epochs", value=str(fields["epochs"])),
+                 KeyValue(key="device", value=fields["device"])]
+    arr.status.append(st)
     return arr

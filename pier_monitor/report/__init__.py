@@ -1,4 +1,5 @@
-"""Reports of identifications: result files, damage-state mcap, figures, comparisons.
+"""Reports of identifications: result files, damage-state mcap, figures, comparisons, and
+the results store (:class:`~pier_monitor.report.store.ResultsStore`).
 
 Imports core, bags and Matplotlib (Agg canvas, no pyplot); never torch or rclpy, so that it
 can run wherever results are read.  Figures take an identification run by its attributes
@@ -13,9 +14,10 @@ from .compare import (COMPARE_JSON, COMPARE_PNG, Comparison, ComparisonPaths, Se
                       compare_results, write_comparison)
 from .figures import (FIGURE_DPI, PROFILE_FIGSIZE_IN, RunLike, plot_hysteresis, plot_profile,
                       plot_responses, plot_training)
-from .results import (DAMAGE_STATE_TYPE, RESULT_JSON, ResultsPaths, damage_state_fields,
-                      damage_state_message, damage_state_topic, load_result, prepare_result,
-                      write_damage_state_mcap, write_results)
+from .results import (DAMAGE_STATE_TYPE, RESULT_JSON, ResultsPaths, WrittenResult,
+                      damage_state_fields, damage_state_message, damage_state_topic, load_result,
+                      prepare_result, write_damage_state_mcap, write_results)
+from .store import ResultsStore
 
 __all__ = [
     "COMPARE_JSON",
@@ -28,8 +30,10 @@ __all__ = [
     "RESULT_JSON",
     "ReportError",
     "ResultsPaths",
+    "ResultsStore",
     "RunLike",
     "SectionChange",
+    "WrittenResult",
     "compare_results",
     "damage_state_fields",
     "damage_state_message",

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -11,6 +10,7 @@ import numpy as np
 
 from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.errors import ReportError
+from pier_monitor.core.fileio import atomic_path
 
 __all__ = ["check_same_pier", "engineering_scale", "ensure_dir", "format_df", "atomic_write_text"]
 
@@ -114,12 +114,15 @@ def ensure_dir(path: str | Path) -> Path:
 
 
 def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same directory."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    """Write ``text`` to ``path`` atomically (:func:`~pier_monitor.core.fileio.atomic_path`).
+
+    Raises
+    ------
+    ReportError
+        Naming the path, if it cannot be written.
+    """
     try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            tmp.write_text(text, encoding="utf-8")
     except OSError as err:
-        with contextlib.suppress(OSError):
-            tmp.unlink(missing_ok=True)
         raise ReportError(f"{path}: cannot write: {err.strerror or err}") from err

@@ -22,20 +22,22 @@ import contextlib
 import math
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
+import matplotlib
 import numpy as np
+from matplotlib import colormaps
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
-from pier_monitor.core.model.config import SpringParameters
-from pier_monitor.core.identify.damage import DAMAGED_DF, SUSPICIOUS_DF, IdentificationResult
 from pier_monitor.core.errors import ReportError
+from pier_monitor.core.identify.damage import DAMAGED_DF, SUSPICIOUS_DF, IdentificationResult
+from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
+from pier_monitor.core.model.config import SpringParameters
 
 from ._common import check_same_pier, engineering_scale, format_df
 
-if TYPE_CHECKING:  # pragma: no cover
-    from matplotlib.figure import Figure
-
-    from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 
 __all__ = [
     "FIGURE_DPI",
@@ -98,15 +100,11 @@ class RunLike(Protocol):
 
 @contextlib.contextmanager
 def _style() -> Iterator[None]:
-    import matplotlib
-
     with matplotlib.rc_context(_STYLE):
         yield
 
 
 def _figure(size_in: tuple[float, float]) -> Figure:
-    from matplotlib.figure import Figure
-
     return Figure(figsize=size_in, dpi=FIGURE_DPI, layout="constrained")
 
 
@@ -285,9 +283,6 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         ax_sec.grid(False)
         ax_sec.tick_params(axis="y", length=0)
 
-        from matplotlib.lines import Line2D
-        from matplotlib.patches import Patch
-
         handles = [Line2D([], [], color=c, lw=2.0, marker=m, ms=7, label=lab)
                    for _, m, c, lab in event_handles]
         handles += [Patch(color=_BAND_COLORS["intact"], alpha=0.35,
@@ -389,8 +384,6 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
             ax.set_xlabel(rf"rotation $\theta_{{{i + 1}}}$ ({t_unit})")
             ax.set_ylabel(f"moment $M_{{{i + 1}}}$ ({m_unit})")
 
-        from matplotlib.lines import Line2D
-
         handles = [Line2D([], [], color="#1f77b4", lw=1.0, label="reproduced response (PINN)"),
                    Line2D([], [], color="0.3", ls="--", lw=1.1,
                           label=r"skeleton $k_2\theta \pm f_y(1-k_2/k_1)$"),
@@ -467,8 +460,6 @@ def plot_responses(window: MeasuredWindow, run: RunLike, path: str | Path) -> Pa
         for ax in axes[-1]:
             ax.set_xlabel("time t (s)")
             ax.set_xlim(float(window.t[0]), float(window.t[-1]))
-
-        from matplotlib.lines import Line2D
 
         handles = [Line2D([], [], color="0.6", lw=1.8, label="measured"),
                    Line2D([], [], color="#1f4e9c", lw=0.9, ls="--", label="reproduced (PINN)")]
@@ -596,8 +587,6 @@ def plot_training(run: RunLike, path: str | Path) -> Path:
         if warmup:
             ax_l.axvspan(0, warmup, color="0.85", lw=0, label="data-only warm-up")
 
-        from matplotlib.lines import Line2D
-
         handles = [Line2D([], [], color=cmap[i], lw=1.5,
                           label=f"spring {i + 1} ({_section_span(res, i)})") for i in range(n)]
         if np.any(~yielded):
@@ -620,7 +609,5 @@ def _positive(values: np.ndarray) -> np.ndarray:
 
 
 def _spring_colors(n: int) -> list[Any]:
-    from matplotlib import colormaps
-
     cmap = colormaps["viridis"]
     return [cmap(0.9 * i / max(n - 1, 1)) for i in range(n)]

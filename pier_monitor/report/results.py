@@ -2,45 +2,47 @@
 
 :func:`write_results` writes, into one directory:
 
-* ``result.json`` — :meth:`IdentificationResult.to_dict` (parameters, DF and state per
-  section, settings, loss history) with the software version, the absolute window start
-  and what ``k1_change_pct`` is relative to; :meth:`IdentificationResult.load_json` reads
-  it back exactly;
 * ``damage_state.mcap`` — one ``pier_monitor_msgs/msg/PierDamageState`` on
   ``/<pier_id>/damage_state`` (``ros2`` profile, CDR, offered latched), what the identifier
   node publishes, readable by the standard mcap tools and ``mcap-ros2-support``;
 * ``profile.png``, ``hysteresis.png``, ``responses.png``, ``training.png`` (see
-  :mod:`~pier_monitor.report.figures`).
+  :mod:`~pier_monitor.report.figures`), unless figures are turned off;
+* ``result.json``, last, so that its presence marks a complete report —
+  :meth:`IdentificationResult.to_dict` (parameters, DF and state per section, settings, loss
+  history) with the software version, the absolute window start and what ``k1_change_pct``
+  is relative to; :meth:`IdentificationResult.load_json` reads it back exactly.
 
+It returns the saved result with the paths, so nobody reads ``result.json`` back.
 :func:`damage_state_fields` is the one mapping from a result to the message's fields.
 """
 
 from __future__ import annotations
 
-import contextlib
-import json
-import os
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from pier_monitor import __version__
+from pier_monitor.bags.types import get_typestore
+from pier_monitor.bags.writer import write_mcap_messages
+from pier_monitor.core.errors import BagError, InputDataError, ReportError
+from pier_monitor.core.fileio import atomic_path
 from pier_monitor.core.identify.damage import DamageState, IdentificationResult
-from pier_monitor.core.errors import BagError, ReportError
+from pier_monitor.core.ingest.recording import NS_PER_S, ns_to_stamp, stamp_to_ns
+from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
+from pier_monitor.core.model.config import SpringParameters
 
-from ._common import atomic_write_text, check_same_pier, ensure_dir
+from ._common import check_same_pier, ensure_dir
 from .figures import (RunLike, check_window_matches, plot_hysteresis, plot_profile,
                       plot_responses, plot_training)
-
-if TYPE_CHECKING:  # pragma: no cover
-    from pier_monitor.core.ingest.window import MeasuredWindow
 
 __all__ = [
     "DAMAGE_STATE_TYPE",
     "RESULT_JSON",
     "ResultsPaths",
+    "WrittenResult",
     "damage_state_fields",
     "damage_state_message",
     "damage_state_topic",
@@ -56,27 +58,34 @@ _SECTION_TYPE = "pier_monitor_msgs/msg/SectionState"
 #: File names inside a results directory.
 RESULT_JSON = "result.json"
 DAMAGE_STATE_MCAP = "damage_state.mcap"
-_FIGURES = {"profile_png": "profile.png", "hysteresis_png": "hysteresis.png",
-            "responses_png": "responses.png", "training_png": "training.png"}
-_NS_PER_S = 1_000_000_000
+FIGURE_FILES = ("profile.png", "hysteresis.png", "responses.png", "training.png")
 
 
 @dataclass(frozen=True)
 class ResultsPaths:
-    """The files :func:`write_results` wrote (all inside ``out_dir``)."""
+    """The files :func:`write_results` wrote (all inside ``out_dir``).
+
+    ``figures`` holds the four PNG files (profile, hysteresis, responses, training), or
+    nothing when figures were turned off.
+    """
 
     out_dir: Path
     result_json: Path
     damage_state_mcap: Path
-    profile_png: Path
-    hysteresis_png: Path
-    responses_png: Path
-    training_png: Path
+    figures: tuple[Path, ...] = ()
 
     @property
-    def figures(self) -> tuple[Path, ...]:
-        """The four PNG figures."""
-        return (self.profile_png, self.hysteresis_png, self.responses_png, self.training_png)
+    def profile_png(self) -> Path | None:
+        """The profile figure (paper Fig. 18), or None when no figures were written."""
+        return self.figures[0] if self.figures else None
+
+
+@dataclass(frozen=True)
+class WrittenResult:
+    """What :func:`write_results` saved: the result as in ``result.json``, and the files."""
+
+    result: IdentificationResult
+    paths: ResultsPaths
 
 
 def damage_state_topic(pier_id: str) -> str:
@@ -85,9 +94,10 @@ def damage_state_topic(pier_id: str) -> str:
 
 
 def _time(t_ns: int) -> dict[str, int]:
-    sec, nanosec = divmod(int(t_ns), _NS_PER_S)
-    if not -2 ** 31 <= sec < 2 ** 31:
-        raise ReportError(f"time {t_ns} ns does not fit a builtin_interfaces/Time")
+    try:
+        sec, nanosec = ns_to_stamp(t_ns)
+    except InputDataError as err:
+        raise ReportError(str(err)) from err
     return {"sec": sec, "nanosec": nanosec}
 
 
@@ -95,7 +105,7 @@ def _window_start_ns(result: IdentificationResult) -> int:
     """Absolute window start, ns; the source's clock (``window_start_s``) where unknown."""
     if result.window_start_ns:
         return int(result.window_start_ns)
-    return int(round(result.window_start_s * _NS_PER_S))
+    return int(round(result.window_start_s * NS_PER_S))
 
 
 def damage_state_fields(result: IdentificationResult, *, stamp_ns: int | None = None
@@ -162,8 +172,6 @@ def damage_state_message(result: IdentificationResult, *, stamp_ns: int | None =
 
     See :func:`damage_state_fields` for the mapping and ``stamp_ns``.
     """
-    from pier_monitor.bags.types import get_typestore
-
     types = get_typestore().types
     time_cls = types["builtin_interfaces/msg/Time"]
     fields = damage_state_fields(result, stamp_ns=stamp_ns)
@@ -186,22 +194,15 @@ def write_damage_state_mcap(result: IdentificationResult, path: str | Path, *,
     ReportError
         Naming the path, if it cannot be written.
     """
-    from pier_monitor.bags.types import get_typestore
-    from pier_monitor.bags.writer import write_mcap_messages
-
     path = Path(path)
     msg = damage_state_message(result, stamp_ns=stamp_ns)
     cdr = bytes(get_typestore().serialize_cdr(msg, DAMAGE_STATE_TYPE))
-    log_ns = msg.header.stamp.sec * _NS_PER_S + msg.header.stamp.nanosec
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    log_ns = stamp_to_ns(msg.header.stamp.sec, msg.header.stamp.nanosec)
     try:
-        tmp.unlink(missing_ok=True)
-        write_mcap_messages(tmp, [(damage_state_topic(result.pier_id), DAMAGE_STATE_TYPE, True)],
-                            [(max(log_ns, 0), 0, cdr)])
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            write_mcap_messages(tmp, [(damage_state_topic(result.pier_id), DAMAGE_STATE_TYPE,
+                                       True)], [(max(log_ns, 0), 0, cdr)])
     except (BagError, OSError) as err:
-        with contextlib.suppress(OSError):
-            tmp.unlink(missing_ok=True)
         raise ReportError(f"{path}: cannot write the damage-state mcap: {err}") from err
     return path
 
@@ -240,10 +241,11 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
 
 def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
                   baseline: IdentificationResult | np.ndarray | None = None,
-                  version: str = __version__) -> ResultsPaths:
-    """Write result.json, damage_state.mcap and the four figures of one identification.
+                  figures: bool = True, version: str = __version__) -> WrittenResult:
+    """Write damage_state.mcap, the four figures and result.json of one identification.
 
-    Existing files of an earlier report in ``out_dir`` are replaced.
+    Existing files of an earlier report in ``out_dir`` are replaced; ``result.json`` is
+    written last, so that its presence marks a complete report.
 
     Parameters
     ----------
@@ -258,12 +260,15 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
         Reference of ``k1_change_pct``: default the design values; an earlier result of the
         same pier (the profile then shows both events, like the paper's Fig. 18); or ``k1``
         values in N·m/rad (the profile then shows ``k1`` relative to them).
+    figures : bool
+        Also draw the four PNG figures (a few seconds).
     version : str
         Software version recorded in result.json.
 
     Returns
     -------
-    ResultsPaths
+    WrittenResult
+        The result as saved (window start, baseline and version filled in) and the paths.
 
     Raises
     ------
@@ -275,22 +280,31 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
     result = prepare_result(run, window, baseline=baseline, version=version)
     paths = ResultsPaths(out_dir=out, result_json=out / RESULT_JSON,
                          damage_state_mcap=out / DAMAGE_STATE_MCAP,
-                         **{k: out / v for k, v in _FIGURES.items()})
-    atomic_write_text(paths.result_json,
-                      json.dumps(result.to_dict(), indent=2, allow_nan=True) + "\n")
+                         figures=tuple(out / name for name in FIGURE_FILES) if figures else ())
     write_damage_state_mcap(result, paths.damage_state_mcap)
-    saved = _RunWithResult(run, result)
+    if figures:
+        _write_figures(_RunWithResult(run, result), window, baseline, paths.figures)
+    try:
+        result.save_json(paths.result_json)
+    except OSError as err:
+        raise ReportError(f"{paths.result_json}: cannot write: {err.strerror or err}") from err
+    return WrittenResult(result=result, paths=paths)
+
+
+def _write_figures(saved: _RunWithResult, window: MeasuredWindow,
+                   baseline: IdentificationResult | np.ndarray | None,
+                   files: tuple[Path, ...]) -> None:
+    profile, hysteresis, responses, training = files
     if isinstance(baseline, IdentificationResult):
-        plot_profile([baseline, result], None, paths.profile_png)
+        plot_profile([baseline, saved.result], None, profile)
     elif baseline is not None:
-        plot_profile([result], None, paths.profile_png, baseline_k1=np.asarray(baseline),
+        plot_profile([saved.result], None, profile, baseline_k1=np.asarray(baseline),
                      baseline_label="the baseline")
     else:
-        plot_profile([result], None, paths.profile_png)
-    plot_hysteresis(saved, paths.hysteresis_png)
-    plot_responses(window, saved, paths.responses_png)
-    plot_training(saved, paths.training_png)
-    return paths
+        plot_profile([saved.result], None, profile)
+    plot_hysteresis(saved, hysteresis)
+    plot_responses(window, saved, responses)
+    plot_training(saved, training)
 
 
 @dataclass(frozen=True)
@@ -301,11 +315,11 @@ class _RunWithResult:
     result: IdentificationResult
 
     @property
-    def reproduced(self) -> Any:
+    def reproduced(self) -> Reproduced:
         return self.run.reproduced
 
     @property
-    def initial(self) -> Any:
+    def initial(self) -> SpringParameters:
         return self.run.initial
 
     @property

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import math
 import shutil
-import signal
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -18,16 +16,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from ros_helpers import REPO_ROOT
+from ros_helpers import (NS, REPO_ROOT, RUN_SCRIPT, TINY, Listener, interrupt, params_file,
+                         start_node)
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(170)]
-
-NS = "/edefense_pier"
-TINY = {"device": "cpu", "seed": 0, "max_epochs": 6, "min_epochs": 1}
-RUN_SCRIPT = ("import runpy, sys; script = sys.argv.pop(1); sys.argv[0] = script; "
-              "runpy.run_path(script, run_name='__main__')")
-RUN_MODULE = ("import runpy, sys; module = sys.argv.pop(1); "
-              "runpy.run_module(module, run_name='__main__', alter_sys=True)")
 
 
 @pytest.fixture(scope="module")
@@ -57,90 +49,11 @@ def offline(short_bag: tuple[Path, int], tmp_path_factory: pytest.TempPathFactor
                         settings=PinnSettings(**TINY))
 
 
-def params_file(path: Path, data: Path, **identifier: Any) -> Path:
-    """A ros__parameters file for both nodes (tiny training unless overridden)."""
-    import yaml
-
-    ident = {"window_dir": str(data / "windows"), "results_dir": str(data / "results"),
-             "progress_every": 1, "write_figures": False, **TINY, **identifier}
-    path.write_text(yaml.safe_dump({
-        "/**/ingest": {"ros__parameters": {"window_dir": str(data / "windows"),
-                                           "status_period_s": 0.5}},
-        "/**/identifier": {"ros__parameters": ident}}))
-    return path
-
-
-class Listener:
-    """Test-side subscriptions, spun on a background SingleThreadedExecutor."""
-
-    def __init__(self, context: Any, typestore: Any) -> None:
-        import rclpy
-        from diagnostic_msgs.msg import DiagnosticArray
-        from pier_monitor_msgs.msg import IdentificationProgress, PierDamageState
-        from rclpy.executors import SingleThreadedExecutor
-
-        from pier_monitor.nodes.identifier_node import DAMAGE_STATE_QOS
-
-        self.node = rclpy.create_node("test_listener", context=context)
-        self.states: list[Any] = []
-        self.status: list[Any] = []
-        self.diagnostics: list[Any] = []
-        self.progress: list[Any] = []
-
-        def on_state(raw: bytes) -> None:  # knows only the .msg text: rosbags decodes
-            self.states.append(typestore.deserialize_cdr(
-                raw, "pier_monitor_msgs/msg/PierDamageState"))
-
-        self.node.create_subscription(PierDamageState, f"{NS}/damage_state", on_state,
-                                      DAMAGE_STATE_QOS, raw=True)
-        self.node.create_subscription(DiagnosticArray, f"{NS}/ingest_status",
-                                      self.status.append, 10)
-        self.node.create_subscription(DiagnosticArray, "/diagnostics",
-                                      self.diagnostics.append, 50)
-        self.node.create_subscription(
-            IdentificationProgress, f"{NS}/identification_progress", self.progress.append, 100)
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
-
-    def wait(self, predicate: Any, timeout_s: float, what: str) -> None:
-        deadline = time.monotonic() + timeout_s
-        while not predicate():
-            if time.monotonic() > deadline:
-                pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
-            time.sleep(0.1)
-
-    def ingest_values(self) -> dict[str, str]:
-        for arr in reversed(self.status):
-            for st in arr.status:
-                if st.name.endswith("/ingest"):
-                    return {kv.key: kv.value for kv in st.values}
-        return {}
-
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.thread.join(timeout=5)
-        self.node.destroy_node()
-
-
 @pytest.fixture
 def listener(rclpy_context: Any, msg_typestore: Any) -> Any:
     lis = Listener(rclpy_context, msg_typestore)
     yield lis
     lis.close()
-
-
-def start_node(spawn_python: Any, module: str, params: Path, *extra: str) -> Any:
-    child = spawn_python(RUN_MODULE, f"pier_monitor.nodes.{module}", "--ros-args", "-r",
-                         f"__ns:={NS}", "--params-file", str(params), *extra)
-    child.wait_for_line("READY", 30)
-    return child
-
-
-def interrupt(child: Any, timeout_s: float = 20.0) -> int:
-    child.popen.send_signal(signal.SIGINT)
-    return child.popen.wait(timeout=timeout_s)
 
 
 def expected_level(df: float) -> bytes:
@@ -153,10 +66,14 @@ def expected_level(df: float) -> bytes:
 def test_replayed_bag_is_fully_ingested_and_diagnosed_like_offline(
         short_bag, offline, listener, spawn_python, tmp_path):
     from pier_monitor.bags import read_bag
+    from pier_monitor.core.ingest.window import load_window
     from pier_monitor.report.results import damage_state_fields
 
     bag, n_samples = short_bag
-    params = params_file(tmp_path / "params.yaml", tmp_path)
+    # the identifier's window directory is not the ingest's: it gets the windows only as
+    # messages, so the damage states below are of windows that travelled as messages
+    inbox = tmp_path / "identifier_inbox"
+    params = params_file(tmp_path / "params.yaml", tmp_path, window_dir=str(inbox))
     graph = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/start_graph.py"),
                          "--namespace", NS, "--params-file", str(params))
     graph.wait_for_line("READY", 30)
@@ -187,6 +104,10 @@ def test_replayed_bag_is_fully_ingested_and_diagnosed_like_offline(
     assert status["windows_emitted"] == "2"
 
     assert [s.event_id for s in listener.states] == [e.window.event_id for e in offline.events]
+    assert not inbox.exists() and len(list((tmp_path / "windows").glob("*.npz"))) == 2
+    for ev in offline.events:  # the identifier stored the window it got from the message
+        stored = load_window(tmp_path / "results" / ev.window.event_id / "window.npz")
+        assert stored == ev.window  # every field: the live ingest gives the offline window
     for live, ev in zip(listener.states, offline.events):
         want = damage_state_fields(ev.result)
         assert live.success and live.overall_state == want["overall_state"]
@@ -257,7 +178,7 @@ def test_bad_parameters_bad_messages_and_failed_training_keep_the_nodes_running(
 
     from pier_monitor.core.model.config import load_config
     from pier_monitor.core.resources import find_config_file
-    from pier_monitor.nodes.ingest_node import SENSOR_QOS
+    from pier_monitor.nodes.qos import SENSOR_QOS
 
     config_path = find_config_file("edefense_like.yaml")
     config = load_config(config_path)
@@ -325,48 +246,6 @@ def test_bad_parameters_bad_messages_and_failed_training_keep_the_nodes_running(
     node.destroy_publisher(pub)
 
 
-def test_conversions_check_messages_against_the_sensor_map_and_roundtrip_windows(offline):
-    from pier_monitor_msgs.msg import SampleBlock
-    from sensor_msgs.msg import Imu
-
-    from pier_monitor.core.model.config import load_config
-    from pier_monitor.core.resources import find_config_file
-    from pier_monitor.nodes.conversions import (MessageError, block_arrays, imu_arrays,
-                                                window_from_msg, window_to_msg)
-
-    config = load_config(find_config_file("edefense_like.yaml"))
-    acc = next(s for s in config.sensors if s.kind == "acceleration" and len(s.axes) == 3)
-    msg = SampleBlock(sensor_id=acc.sensor_id, kind=0, unit=acc.unit, sample_rate_hz=200.0,
-                      first_sample_index=40, axes=list(acc.axes), data=[1.0] * 12)
-    msg.header.stamp.sec = 10
-    times, data, index = block_arrays(msg, acc, 200.0, "/p/acc")
-    assert data.shape == (4, 3) and list(index) == [40, 41, 42, 43]
-    assert list(times) == [10_000_000_000 + 5_000_000 * i for i in range(4)]
-    msg.data = [1.0] * 11
-    with pytest.raises(MessageError, match=r"/p/acc: SampleBlock: 11 values"):
-        block_arrays(msg, acc, 200.0, "/p/acc")
-    msg.data, msg.sensor_id = [1.0] * 12, "other"
-    with pytest.raises(MessageError, match=r"block of sensor 'other' on the topic of sensor"):
-        block_arrays(msg, acc, 200.0, "/p/acc")
-
-    imu = Imu()
-    imu.header.stamp.sec = 3
-    imu.linear_acceleration.x = 0.5
-    if acc.unit in ("m/s^2", "m/s2"):
-        t, d = imu_arrays(imu, acc, "/p/imu")
-        assert t[0] == 3_000_000_000 and d.tolist() == [[0.5, 0.0, 0.0]]
-    wire = next(s for s in config.sensors if s.kind == "displacement")
-    with pytest.raises(MessageError, match="sensor_msgs/Imu"):
-        imu_arrays(imu, wire, "/p/wire")
-
-    window = offline.events[0].window
-    back = window_from_msg(window_to_msg(window, config))
-    assert back.event_id == window.event_id and back.start_time_ns == window.start_time_ns
-    for name in ("ag", "a", "v", "x"):
-        np.testing.assert_array_equal(getattr(back, name), getattr(window, name))
-    np.testing.assert_allclose(back.t, window.t, rtol=0, atol=1e-9)
-
-
 def imu_params(path: Path, data: Path, imu_ids: list[str]) -> Path:
     """ros__parameters of an ingest node whose ``imu_ids`` sensors publish sensor_msgs/Imu."""
     import yaml
@@ -388,7 +267,7 @@ def test_imu_samples_are_counted_one_per_message_and_bad_imu_messages_dropped(
 
     from pier_monitor.core.model.config import load_config
     from pier_monitor.core.resources import find_config_file
-    from pier_monitor.nodes.ingest_node import LATCHED_QOS, SENSOR_QOS
+    from pier_monitor.nodes.qos import LATCHED_QOS, SENSOR_QOS
 
     config = load_config(find_config_file("edefense_like.yaml"))
     specs = {s.sensor_id: s for s in config.sensors}
@@ -480,7 +359,7 @@ def test_echo_damage_state_prints_the_latched_state_and_exits_after_count(
 
     from pier_monitor_msgs.msg import PierDamageState
 
-    from pier_monitor.nodes.identifier_node import DAMAGE_STATE_QOS
+    from pier_monitor.nodes.qos import DAMAGE_STATE_QOS
 
     script = str(REPO_ROOT / "launch_free_scripts/echo_damage_state.py")
     pub = listener.node.create_publisher(PierDamageState, f"{NS}/damage_state",
@@ -518,8 +397,8 @@ def test_record_topics_writes_an_mcap_that_decodes_with_mcap_ros2(
     from pier_monitor_msgs.msg import PierDamageState, SampleBlock
     from rclpy.duration import Duration
 
-    from pier_monitor.nodes.identifier_node import DAMAGE_STATE_QOS
-    from pier_monitor.nodes.ingest_node import SENSOR_QOS
+    from pier_monitor.nodes.qos import DAMAGE_STATE_QOS
+    from pier_monitor.nodes.qos import SENSOR_QOS
 
     node = listener.node
     state_pub = node.create_publisher(PierDamageState, f"{NS}/damage_state", DAMAGE_STATE_QOS)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
+from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.ingest import IngestError, StreamIngest, ingest_recording
 from pier_monitor.core.ingest.recording import Recording, SensorRecord
 from pier_monitor.core.resources import find_config_file
@@ -92,7 +93,7 @@ def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
     rec = synthetic.recording
     stream = StreamIngest(rec.config)
     for t_ns, config in rec.config_updates:  # on ROS: the latched configuration topic
-        stream.update_config(t_ns, config)
+        stream.update_config(config, t_ns)
     got = []
     n = next(iter(rec.sensors.values())).n_samples
     for b0 in range(0, n, 40):
@@ -101,6 +102,8 @@ def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
                                r.sample_index[b0:b0 + 40])
     got += stream.flush()
     assert stream.received == sum(r.n_samples * 1 for r in rec.sensors.values())
+    assert stream.counts.gap_samples == stream.counts.duplicate_samples == 0
+    assert stream.counts.windows == len(got) == 2
     whole, _ = ingested
     assert [w.event_id for w in got] == [w.event_id for w in whole]
     for a, b in zip(whole, got):
@@ -121,7 +124,7 @@ def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested
                       sample_index=r.sample_index[keep])
     stream = StreamIngest(rec.config)
     for t_ns, config in rec.config_updates:
-        stream.update_config(t_ns, config)
+        stream.update_config(config, t_ns)
     got = []
     for b0 in range(0, next(iter(bad.sensors.values())).n_samples + 400, 400):
         for sid, s in bad.sensors.items():
@@ -137,6 +140,43 @@ def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested
                                           "(l2_wire_w.x) all point one way")
     assert "l2_wire_n: gap_excluded (400 missing samples (2.00 s)" in outcomes[1].failure
     assert "gap_excluded" in [f.code for f in stream.report.findings]
+
+
+def test_stream_accounts_for_gaps_duplicates_and_samples_without_index(synthetic):
+    rec = synthetic.recording
+    stream = StreamIngest(rec.config)
+    level2 = next(sp for sp in rec.config.sensors if sp.level == 2 and sp.kind == "acceleration")
+    r = rec.sensors[level2.sensor_id]
+    sid, t, x, idx = level2.sensor_id, r.time_ns, r.data, r.sample_index
+    for sl in (slice(0, 10), slice(15, 20), slice(18, 23)):  # 5 samples lost, 2 repeated
+        assert stream.push(sid, t[sl], x[sl], idx[sl]) == []
+    # no sample index (sensor_msgs/Imu): from the stamps, so a lost sample is a gap of one
+    imu = next(sp for sp in rec.config.sensors if sp.level == 3 and sp.kind == "acceleration")
+    ri = rec.sensors[imu.sensor_id]
+    for i in (0, 1, 2, 4, 5):
+        stream.push(imu.sensor_id, ri.time_ns[i:i + 1], ri.data[i:i + 1])
+    stream.push("not_in_the_map", t[:3], x[:3], idx[:3])
+    c = stream.counts
+    assert (c.blocks, c.samples, c.gap_samples, c.duplicate_samples) == (8, 25, 6, 2)
+    assert "unmapped_sensor" in stream.report.codes("not_in_the_map")
+    assert stream.latest_time_ns == int(t[22])
+
+
+def test_stream_keeps_the_configuration_history(synthetic):
+    rec = synthetic.recording
+    (t_update, updated), *_ = rec.config_updates
+    stream = StreamIngest(rec.config)
+    sp = rec.config.sensors[-1]
+    r = rec.sensors[sp.sensor_id]
+    stream.push(sp.sensor_id, r.time_ns[:5], r.data[:5], r.sample_index[:5])
+    at = stream.update_config(updated)  # arrives live: holds from just after the latest sample
+    assert at == int(r.time_ns[4]) + 1
+    assert stream.config_at(int(r.time_ns[4])) is rec.config
+    assert stream.config_at(at) is updated
+    assert stream.config_at(at + 10 ** 12) is updated
+    bad = dataclasses.replace(updated, pier_id="another_pier")
+    with pytest.raises(InputDataError, match="changes the pier"):
+        stream.update_config(bad)
 
 
 def test_no_event_is_a_normal_result(synthetic):

@@ -18,6 +18,8 @@ import numpy as np
 
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.fileio import atomic_path
+from pier_monitor.core.ingest.window import MeasuredWindow
 
 __all__ = [
     "DamageState",
@@ -26,6 +28,7 @@ __all__ = [
     "SectionResult",
     "IdentificationResult",
     "build_sections",
+    "failed_result",
     "k1_change_pct",
 ]
 
@@ -166,9 +169,16 @@ class IdentificationResult:
         d["sections"] = tuple(SectionResult(**s) for s in d["sections"])
         return cls(**d)
 
-    def save_json(self, path: str | Path) -> None:
-        """Write :meth:`to_dict` as JSON."""
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2, allow_nan=True) + "\n")
+    def save_json(self, path: str | Path) -> Path:
+        """Write :meth:`to_dict` as JSON, atomically (a reader never sees half a file).
+
+        Raises ``OSError`` when the file cannot be written.
+        """
+        path = Path(path)
+        with atomic_path(path) as tmp:
+            tmp.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=True) + "\n",
+                           encoding="utf-8")
+        return path
 
     @classmethod
     def load_json(cls, path: str | Path) -> "IdentificationResult":
@@ -208,3 +218,33 @@ def overall_state(sections: tuple[SectionResult, ...]) -> str:
     """The worst state over the sections."""
     known = [s.damage_state for s in sections if s.damage_state != DamageState.UNKNOWN]
     return (max(known) if known else DamageState.UNKNOWN).name.lower()
+
+
+def failed_result(window: MeasuredWindow, *, device: str, message: str) -> IdentificationResult:
+    """The result of an identification of ``window`` that failed (``success`` false).
+
+    Every section is ``unknown`` with NaN parameters and no identifiable ``k2``/``fy``, so
+    that a failure travels the same way as a diagnosis (result files, damage-state message)
+    and is never read as one.
+
+    Parameters
+    ----------
+    window : MeasuredWindow
+        The window the identification was run on.
+    device : str
+        The training device asked for.
+    message : str
+        What went wrong.
+    """
+    nan = float("nan")
+    z = window.geometry.level_heights_m
+    sections = tuple(SectionResult(
+        index=i, z_bottom_m=float(z[i]), z_top_m=float(z[i + 1]), k1=nan, k2=nan, fy=nan, c=nan,
+        yield_angle_rad=nan, max_angle_rad=nan, ductility_factor=nan,
+        state=DamageState.UNKNOWN.name.lower(), yielded=False, k2_identifiable=False,
+        fy_identifiable=False) for i in range(window.n_levels))
+    return IdentificationResult(
+        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
+        overall_state=DamageState.UNKNOWN.name.lower(), window_start_s=float(window.t[0]),
+        window_duration_s=window.duration_s, epochs=0, final_loss=nan, wall_time_s=0.0,
+        device=device, success=False, message=message, window_start_ns=window.start_time_ns)

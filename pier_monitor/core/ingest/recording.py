@@ -23,9 +23,33 @@ from pier_monitor.core.errors import InputDataError
 if TYPE_CHECKING:  # pragma: no cover
     from pier_monitor.core.ingest.settings import Finding
 
-__all__ = ["SensorRecord", "Recording", "sample_times_ns", "NS_PER_S"]
+__all__ = ["SensorRecord", "Recording", "sample_times_ns", "NS_PER_S", "ns_to_stamp",
+           "stamp_to_ns"]
 
 NS_PER_S = 1_000_000_000
+_INT32_MIN, _INT32_MAX = -2 ** 31, 2 ** 31 - 1
+
+
+def ns_to_stamp(t_ns: int) -> tuple[int, int]:
+    """ns since the Unix epoch → ``(sec, nanosec)`` of a ``builtin_interfaces/Time``.
+
+    ``nanosec`` is in ``[0, 1e9)``, so times before the epoch have a negative ``sec``.
+
+    Raises
+    ------
+    InputDataError
+        If ``sec`` does not fit the message's int32.
+    """
+    sec, nanosec = divmod(int(t_ns), NS_PER_S)
+    if not _INT32_MIN <= sec <= _INT32_MAX:
+        raise InputDataError(f"time {int(t_ns)} ns does not fit a builtin_interfaces/Time "
+                             "(int32 seconds)")
+    return sec, nanosec
+
+
+def stamp_to_ns(sec: int, nanosec: int) -> int:
+    """``(sec, nanosec)`` of a ``builtin_interfaces/Time`` → ns since the Unix epoch."""
+    return int(sec) * NS_PER_S + int(nanosec)
 
 
 def sample_times_ns(start_ns: int, n_samples: int, rate_hz: float) -> np.ndarray:

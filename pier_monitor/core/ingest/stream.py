@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError
@@ -14,7 +16,32 @@ from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.ingest.windows import ingest_recording
 from pier_monitor.core.model.config import PierConfig
 
-__all__ = ["StreamIngest"]
+__all__ = ["StreamIngest", "StreamCounts"]
+
+
+@dataclass(frozen=True)
+class StreamCounts:
+    """What a :class:`StreamIngest` received so far.
+
+    Attributes
+    ----------
+    blocks : int
+        Blocks pushed (of mapped sensors).
+    samples : int
+        Samples pushed (of mapped sensors).
+    gap_samples : int
+        Samples missing between consecutive blocks of a sensor (by sample index).
+    duplicate_samples : int
+        Samples of a block that repeat indices already received.
+    windows : int
+        Windows returned so far.
+    """
+
+    blocks: int = 0
+    samples: int = 0
+    gap_samples: int = 0
+    duplicate_samples: int = 0
+    windows: int = 0
 
 
 class StreamIngest:
@@ -25,11 +52,16 @@ class StreamIngest:
     an event has ended (``merge_gap_s`` + ``context_s`` of data after its window), the
     buffered samples are ingested exactly as :func:`ingest_recording` would and the window is
     returned by :meth:`push`.  Nothing received is dropped: samples stay in the buffer until
-    they are older than ``buffer_s``, and :attr:`received` counts them.
+    they are older than ``buffer_s``, and :attr:`counts` accounts for every one of them
+    (gaps and duplicates by sample index).
 
     :attr:`report` gathers every finding once, and in ``report.outcomes`` the outcome of
     every event handed on: with its window, or failed (the reason names the level, sensors,
     time and cause) or cut by the end of the stream.
+
+    The configuration history lives here too: :meth:`update_config` adds an update (e.g.
+    deck mass added before a run) and :meth:`config_at` answers which configuration held at
+    a time, as :meth:`Recording.config_at` does for a whole recording.
     """
 
     def __init__(self, config: PierConfig, settings: IngestSettings | None = None,
@@ -40,32 +72,70 @@ class StreamIngest:
         self.rate = config.sample_rate_hz
         self._cap = int(buffer_s * self.rate) + 1
         self._buf: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
-        self._count: dict[str, int] = {}
+        self._next_index: dict[str, int] = {}
+        self._first_ns: dict[str, int] = {}  # time of sample index 0 of sensors without indices
+        self._mapped = {sp.sensor_id for sp in config.sensors}
         self._foundation = {sp.sensor_id for sp in config.sensors
                             if sp.level == 0 and sp.kind == "acceleration"}
         self._poll_ns = int(poll_s * NS_PER_S)
         self._last_poll_ns: int | None = None
         self._done_until_ns = -1
-        self._updates: list[tuple[int, PierConfig]] = []
+        self._history = Recording(config, {}, source="stream")
+        self._latest_ns: int | None = None
+        self.counts = StreamCounts()
         self.report = IngestReport()
-        self.received = 0
 
-    def update_config(self, time_ns: int, config: PierConfig) -> None:
-        """A new configuration holds from ``time_ns`` (e.g. deck mass added before a run).
+    @property
+    def received(self) -> int:
+        """Samples received so far (of mapped sensors)."""
+        return self.counts.samples
 
-        Only geometry and design values may change; the sensor map stays.
+    @property
+    def latest_time_ns(self) -> int | None:
+        """Time of the latest sample received, ns (None before the first)."""
+        return self._latest_ns
+
+    def update_config(self, config: PierConfig, time_ns: int | None = None) -> int:
+        """A new configuration holds from ``time_ns``; returns that time.
+
+        ``time_ns`` defaults to just after the latest sample received (an update that
+        arrives during the stream holds for what comes next).  Only geometry and design
+        values may change; the sensor map stays.
+
+        Raises
+        ------
+        InputDataError
+            If the update changes the pier, its levels or its sensor map.
         """
-        self._updates.append((int(time_ns), config))
-        Recording(self.config, {}, config_updates=tuple(self._updates))  # validates
+        if time_ns is None:
+            time_ns = (self._latest_ns + 1) if self._latest_ns is not None else 0
+        updates = (*self._history.config_updates, (int(time_ns), config))
+        self._history = Recording(self.config, {}, source="stream", config_updates=updates)
+        return int(time_ns)
+
+    def config_at(self, time_ns: int) -> PierConfig:
+        """The configuration in force at ``time_ns`` (the latest update at or before it)."""
+        return self._history.config_at(time_ns)
+
+    def exclusions(self) -> list[str]:
+        """``"<sensor>: <code>"`` for every exclusion reported so far (findings whose action
+        is ``excluded``: a sensor, a channel or a stretch of one left out), sorted."""
+        return sorted({f"{f.where}: {f.code}" for f in list(self.report.findings)
+                       if f.action == "excluded"})
 
     def push(self, sensor_id: str, time_ns: np.ndarray, data: np.ndarray,
              sample_index: np.ndarray | None = None) -> list[MeasuredWindow]:
         """Add a block of one sensor (times in ns, data (T, n_axes) as recorded).
 
+        ``sample_index`` (T,) is the running index of each sample.  Without it (a
+        ``sensor_msgs/Imu`` carries none) the index follows from the time stamps on the
+        sensor's own clock, ``round((t - t_first) * rate)``, so that a lost message is a gap
+        and not a shift of every later sample.
+
         Returns the windows of events that have just ended (usually none).
         """
         time_ns = np.asarray(time_ns, dtype=np.int64).reshape(-1)
-        if sensor_id not in {sp.sensor_id for sp in self.config.sensors}:
+        if sensor_id not in self._mapped:
             if not any(f.code == "unmapped_sensor" and f.where == sensor_id
                        for f in self.report.findings):
                 t = int(time_ns[0]) if time_ns.size else 0
@@ -79,14 +149,11 @@ class StreamIngest:
                                  f"{data.size} values; expected {time_ns.size} x {n_axes}")
         data = data.reshape(time_ns.size, n_axes)
         if sample_index is None:
-            start = self._count.get(sensor_id, 0)
-            sample_index = np.arange(start, start + time_ns.size, dtype=np.int64)
+            first = self._first_ns.setdefault(sensor_id, int(time_ns[0]) if time_ns.size else 0)
+            sample_index = np.rint((time_ns - first) * (self.rate / NS_PER_S)).astype(np.int64)
         sample_index = np.asarray(sample_index, dtype=np.int64).reshape(-1)
-        if time_ns.size:
-            self._count[sensor_id] = max(self._count.get(sensor_id, 0),
-                                         int(sample_index.max()) + 1)
+        self._account(sensor_id, time_ns, sample_index)
         self._buf.setdefault(sensor_id, []).append((time_ns, data, sample_index))
-        self.received += time_ns.size
         self._trim(sensor_id)
         if sensor_id not in self._foundation or not time_ns.size:
             return []
@@ -94,11 +161,34 @@ class StreamIngest:
         if self._last_poll_ns is not None and now - self._last_poll_ns < self._poll_ns:
             return []
         self._last_poll_ns = now
-        return self._poll()
+        return self._emit(self._poll())
 
     def flush(self) -> list[MeasuredWindow]:
         """End of the stream: windows of events whose data ended with the stream."""
-        return self._poll(final=True)
+        return self._emit(self._poll(final=True))
+
+    def _account(self, sensor_id: str, time_ns: np.ndarray, index: np.ndarray) -> None:
+        c = self.counts
+        gaps, dups, n = c.gap_samples, c.duplicate_samples, int(time_ns.size)
+        if n:
+            last = int(time_ns.max())
+            self._latest_ns = last if self._latest_ns is None else max(self._latest_ns, last)
+            expected = self._next_index.get(sensor_id)
+            first = int(index[0])
+            if expected is not None and first > expected:
+                gaps += first - expected
+            elif expected is not None and first < expected:
+                dups += min(n, expected - first)
+            self._next_index[sensor_id] = max(expected or 0, int(index.max()) + 1)
+        self.counts = StreamCounts(blocks=c.blocks + 1, samples=c.samples + n, gap_samples=gaps,
+                                   duplicate_samples=dups, windows=c.windows)
+
+    def _emit(self, windows: list[MeasuredWindow]) -> list[MeasuredWindow]:
+        if windows:
+            c = self.counts
+            self.counts = StreamCounts(c.blocks, c.samples, c.gap_samples, c.duplicate_samples,
+                                       c.windows + len(windows))
+        return windows
 
     def _trim(self, sensor_id: str) -> None:
         blocks = self._buf[sensor_id]
@@ -115,7 +205,7 @@ class StreamIngest:
                                         np.concatenate([b[1] for b in blocks]), self.rate,
                                         np.concatenate([b[2] for b in blocks]))
         return Recording(self.config, sensors, source="stream",
-                         config_updates=tuple(self._updates))
+                         config_updates=self._history.config_updates)
 
     def _poll(self, final: bool = False) -> list[MeasuredWindow]:
         s = self.settings

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.fileio import atomic_path
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
 
 __all__ = ["NoiseModel", "Coverage", "MeasuredWindow", "Reproduced", "QUANTITIES",
@@ -376,10 +377,8 @@ def save_window(window: MeasuredWindow, path: str | Path) -> Path:
     arrays = {"t": window.t, "ag": window.ag, "a": window.a, "v": window.v, "x": window.x}
     if window.moments is not None:
         arrays["moments"] = window.moments
-    tmp = path.with_name(path.name + ".part")
-    with tmp.open("wb") as fh:
+    with atomic_path(path) as tmp, tmp.open("wb") as fh:  # a reader never sees half a window
         np.savez(fh, header=np.array(json.dumps(header)), **arrays)
-    tmp.replace(path)  # atomic: a reader never sees half a window
     return path
 
 

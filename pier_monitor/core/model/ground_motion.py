@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -338,8 +339,6 @@ def el_centro_1940() -> GroundMotion:
 
     US Geological Survey, public domain; 3995 samples at 0.02 s, PGA 3.07 m/s² (0.313 g).
     """
-    from importlib import resources
-
     ref = resources.files("pier_monitor") / "data" / "elcentro_1940_ns_g.txt"
     with resources.as_file(ref) as path:
         gm = load_accelerogram(path, units="g", dt=0.02)

@@ -4,14 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from typing import TYPE_CHECKING
-
+from pier_monitor.core.ingest.fusion import fuse_acceleration_displacement
+from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
-
-if TYPE_CHECKING:  # pragma: no cover
-    from pier_monitor.core.model.ground_motion import GroundMotion
-    from pier_monitor.core.model.solver import Response
-    from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
+from pier_monitor.core.model.ground_motion import GroundMotion, synthetic_near_fault
+from pier_monitor.core.model.solver import Response, simulate
 
 __all__ = ["table1_model", "paper_case_window", "realistic_case_window"]
 
@@ -30,9 +27,9 @@ def table1_model() -> tuple[PierGeometry, SpringParameters]:
 
 
 def paper_case_window(*, moments_measured: bool = True, noise_mgal: float = 1.0, seed: int = 0,
-                      ground_motion: "GroundMotion | None" = None,
+                      ground_motion: GroundMotion | None = None,
                       window_s: tuple[float, float] = (30.0, 50.0)
-                      ) -> tuple["MeasuredWindow", SpringParameters, "Response"]:
+                      ) -> tuple[MeasuredWindow, SpringParameters, Response]:
     """The paper's simulation case (section 5-6) as a measured window with known truth.
 
     The Table 1 pier under the synthetic near-fault record at PGA 8 m/s² (or
@@ -51,10 +48,6 @@ def paper_case_window(*, moments_measured: bool = True, noise_mgal: float = 1.0,
     response : Response
         The noise-free responses over the window.
     """
-    from pier_monitor.core.model.ground_motion import synthetic_near_fault
-    from pier_monitor.core.model.solver import simulate
-    from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
-
     geometry, truth = table1_model()
     gm = ground_motion if ground_motion is not None else synthetic_near_fault(pga_mps2=8.0)
     resp = simulate(geometry, truth, gm.acc, gm.dt, output_dt=0.01).window(*window_s)
@@ -81,7 +74,7 @@ def paper_case_window(*, moments_measured: bool = True, noise_mgal: float = 1.0,
 def realistic_case_window(*, seed: int = 0, acc_noise_mps2: float = 1e-3,
                           wire_noise_m: float = 1e-4, sensor_rate_hz: float = 200.0,
                           window_s: tuple[float, float] = (30.0, 50.0), pad_s: float = 5.0
-                          ) -> tuple["MeasuredWindow", SpringParameters, "Response"]:
+                          ) -> tuple[MeasuredWindow, SpringParameters, Response]:
     """The Table 1 case with realistic sensors: no velocity meters, no moments.
 
     Relative and foundation accelerations with ``acc_noise_mps2`` RMS noise, wire
@@ -90,11 +83,6 @@ def realistic_case_window(*, seed: int = 0, acc_noise_mps2: float = 1e-3,
     window padded by ``pad_s``, then everything is taken at 100 Hz.  Design values: the
     paper's starting point (half ``k1, k2, c``, a tenth of ``fy``); nothing uses the truth.
     """
-    from pier_monitor.core.ingest.fusion import fuse_acceleration_displacement
-    from pier_monitor.core.model.ground_motion import synthetic_near_fault
-    from pier_monitor.core.model.solver import simulate
-    from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
-
     geometry, truth = table1_model()
     gm = synthetic_near_fault(pga_mps2=8.0)
     full = simulate(geometry, truth, gm.acc, gm.dt, output_dt=1.0 / sensor_rate_hz)

@@ -48,6 +48,7 @@ from scipy import signal
 
 from pier_monitor.core.model.config import PierConfig, PierGeometry, SensorSpec, SpringParameters
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.model.ground_motion import synthetic_near_fault
 from pier_monitor.core.model.link_model import natural_periods
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord, sample_times_ns
@@ -619,7 +620,7 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
             ag_transverse=table[s0:s0 + n_rec, 1].copy(),
             ag_vertical=table[s0:s0 + n_rec, 2].copy(),
             initial_offset_m=offset.copy(),
-            ductility_factors=np.max(np.abs(response.theta), axis=0) / params.yield_angles,
+            ductility_factors=ductility_factors(response.theta, params),
             periods_s=natural_periods(geometry, params),
             pga_mps2=float(np.max(np.abs(response.ag))),
             motion_seeds=seeds,

@@ -1,0 +1,113 @@
+"""One event, from its window to its results on disk: the step both entrances share.
+
+:func:`identify_window` is what happens to every mainshock window, whether it comes from a
+bag (:func:`pier_monitor.pipeline.identify_bag`, offline) or from the live ingest (the
+identifier node): store the window, choose the baseline, train, write the results, and
+return them.  The rules (where files go, which earlier event is the baseline, what a
+failure leaves behind) are those of :class:`~pier_monitor.report.store.ResultsStore`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from pier_monitor.core.identify.damage import IdentificationResult, failed_result
+from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.pinn import PinnSettings, Progress, identify
+from pier_monitor.report.results import ResultsPaths, write_results
+from pier_monitor.report.store import ResultsStore
+
+__all__ = ["EventOutcome", "TrainingStopped", "identify_window"]
+
+
+class TrainingStopped(Exception):  # noqa: N818 - a signal, not an error of the project
+    """Raise it from a progress callback to stop a training without recording a failure.
+
+    The window stays stored and the event pending (e.g. a node shutting down).
+    """
+
+
+@dataclass(frozen=True)
+class EventOutcome:
+    """What :func:`identify_window` did with one window.
+
+    Attributes
+    ----------
+    window : MeasuredWindow
+        The window identified.
+    result : IdentificationResult
+        The saved result; ``result.success`` is false when the training failed (every
+        section ``unknown``, the reason in ``result.message``).
+    out_dir : Path
+        The event's results directory.
+    window_file : Path
+        The stored window.
+    paths : ResultsPaths or None
+        The files written for a successful identification; None after a failure (then
+        ``out_dir / "failed.json"`` holds the result).
+    """
+
+    window: MeasuredWindow
+    result: IdentificationResult
+    out_dir: Path
+    window_file: Path
+    paths: ResultsPaths | None
+
+
+def identify_window(window: MeasuredWindow, settings: PinnSettings, store: ResultsStore, *,
+                    progress: Callable[[Progress], None] | None = None,
+                    figures: bool = True) -> EventOutcome:
+    """Identify one window and write its results into the store.
+
+    1. The window is stored in its event directory before training starts.
+    2. The baseline is :meth:`ResultsStore.baseline_for` (the earliest earlier successful
+       result of the same pier; none: the design values).
+    3. The PINN trains (:func:`pier_monitor.pinn.identify`).
+    4. The results are written (:func:`~pier_monitor.report.results.write_results`).
+
+    A training that fails (a NaN loss, no GPU for ``device="cuda"``, out of memory) does not
+    raise: it is recorded in the store as a failed result, which is returned.
+
+    Parameters
+    ----------
+    window : MeasuredWindow
+        The event window.
+    settings : PinnSettings
+        Training settings.
+    store : ResultsStore
+        Where the window and the results go, and where the baseline comes from.
+    progress : callable, optional
+        ``progress(Progress)`` after every epoch; it may raise :class:`TrainingStopped`.
+    figures : bool
+        Also draw the report figures (a few seconds per event).
+
+    Returns
+    -------
+    EventOutcome
+
+    Raises
+    ------
+    TrainingStopped
+        When ``progress`` raised it; nothing but the window was written.
+    ReportError
+        When the store cannot be written (names the file or directory).
+    """
+    window_file = store.start_event(window)
+    out_dir = store.event_dir(window.event_id)
+    baseline = store.baseline_for(window)
+    try:
+        run = identify(window, settings, callback=progress,
+                       baseline_k1=None if baseline is None else baseline.params.k1)
+    except TrainingStopped:
+        raise
+    except Exception as err:  # divergence, no GPU, out of memory: a failed result, not a crash
+        failed = failed_result(window, device=settings.device,
+                               message=f"identification failed: {type(err).__name__}: {err}")
+        store.record_failure(failed)
+        return EventOutcome(window=window, result=failed, out_dir=out_dir,
+                            window_file=window_file, paths=None)
+    written = write_results(run, window, out_dir, baseline=baseline, figures=figures)
+    return EventOutcome(window=window, result=written.result, out_dir=out_dir,
+                        window_file=window_file, paths=written.paths)

@@ -1,0 +1,99 @@
+"""What every node of the package runs on: a queue worker off the executor, and ``run_node``.
+
+Subscription callbacks only put items on a :class:`QueueWorker`; its thread does the work
+(decoding, ingest, training), so that the executor never stalls and nothing received is
+lost while a PINN trains.
+"""
+
+from __future__ import annotations
+
+import queue
+import signal
+import threading
+from collections.abc import Callable
+from typing import Generic, TypeVar
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+
+__all__ = ["QueueWorker", "run_node"]
+
+T = TypeVar("T")
+_STOP = object()
+
+
+class QueueWorker(Generic[T]):
+    """One thread that handles queued items in order; started at construction.
+
+    Parameters
+    ----------
+    name : str
+        Name of the thread.
+    handle : callable
+        ``handle(item)``, called on the worker thread for every item.
+    on_error : callable
+        ``on_error(item, exception)`` when ``handle`` raised; the worker goes on with the
+        next item (one bad item never stops a node).
+    """
+
+    def __init__(self, name: str, handle: Callable[[T], None],
+                 on_error: Callable[[T, Exception], None]) -> None:
+        self._handle = handle
+        self._on_error = on_error
+        self._queue: queue.SimpleQueue[object] = queue.SimpleQueue()
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def put(self, item: T) -> None:
+        """Queue an item (any thread; never blocks)."""
+        self._queue.put(item)
+
+    @property
+    def backlog(self) -> int:
+        """Items queued and not handled yet."""
+        return self._queue.qsize()
+
+    def stop(self, timeout_s: float = 30.0) -> bool:
+        """Handle what is queued, then end the thread; True if it ended within the time."""
+        self._queue.put(_STOP)
+        self._thread.join(timeout=timeout_s)
+        return not self._thread.is_alive()
+
+    def _run(self) -> None:
+        while True:
+            item = self._queue.get()
+            if item is _STOP:
+                return
+            try:
+                self._handle(item)  # type: ignore[arg-type]
+            except Exception as err:  # never let one bad item stop the node
+                self._on_error(item, err)  # type: ignore[arg-type]
+
+
+def run_node(node_class: Callable[[], Node], args: list[str] | None = None) -> int:
+    """Spin one node on a SingleThreadedExecutor until Ctrl-C / SIGTERM; clean shutdown.
+
+    Prints ``READY <fully qualified name>`` once the node is constructed (the launch-free
+    scripts and the tests wait for it).
+    """
+    rclpy.init(args=args)
+    node = None
+    executor = SingleThreadedExecutor()
+    signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
+    try:
+        node = node_class()
+        executor.add_node(node)
+        print(f"READY {node.get_fully_qualified_name()}", flush=True)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        # a second Ctrl-C (terminal and start_graph.py both signal) must not cut the cleanup
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        executor.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

@@ -1,0 +1,196 @@
+"""The results directory of one or more piers: what is done, what is not, what to compare with.
+
+Layout: one directory per event, ``<root>/<event_id>/``, holding
+
+* ``window.npz`` — the window, stored before its identification starts (so that a crash or
+  a kill loses no event);
+* ``result.json``, ``damage_state.mcap`` and the figures of a successful identification
+  (:func:`~pier_monitor.report.results.write_results`; ``result.json`` last);
+* ``failed.json`` — a failed identification
+  (:func:`~pier_monitor.core.identify.damage.failed_result`: its message says why).
+
+An event is *done* when it has ``result.json`` or ``failed.json``.
+
+The baseline rule (the reference of ``k1_change_pct``), the same for a bag identified
+offline and for the live identifier: the **earliest successful result of the same pier whose
+window started before this one**.  For the first event of a pier there is none, and changes
+are relative to the design values.  Identifying a bag into an empty directory therefore
+compares every later event with the bag's first one; a store that already holds an earlier
+event of the pier makes that one the baseline.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+from pier_monitor.core.errors import InputDataError, ReportError
+from pier_monitor.core.identify.damage import IdentificationResult
+from pier_monitor.core.ingest.window import MeasuredWindow, load_window, save_window
+
+from ._common import ensure_dir
+from .results import RESULT_JSON
+
+__all__ = ["ResultsStore", "PendingWindows", "WINDOW_NPZ", "FAILED_JSON"]
+
+log = logging.getLogger(__name__)
+
+#: File names inside an event directory (besides those of ``write_results``).
+WINDOW_NPZ = "window.npz"
+FAILED_JSON = "failed.json"
+
+
+@dataclass(frozen=True)
+class PendingWindows:
+    """Windows without a result yet, oldest first, and the files that could not be read."""
+
+    windows: tuple[MeasuredWindow, ...]
+    unreadable: tuple[str, ...]
+
+
+class ResultsStore:
+    """A results directory: event directories, baselines, pending windows, failures.
+
+    Parameters
+    ----------
+    root : str or Path
+        The results root; created when the first event is stored.
+    """
+
+    def __init__(self, root: str | Path) -> None:
+        self.root = Path(root)
+
+    def __repr__(self) -> str:
+        return f"ResultsStore({str(self.root)!r})"
+
+    def create(self) -> ResultsStore:
+        """Create the results root (with its parents) now; returns the store.
+
+        Raises
+        ------
+        ReportError
+            Naming the root, if it cannot be created or written.
+        """
+        ensure_dir(self.root)
+        return self
+
+    # -- paths ------------------------------------------------------------------------------
+    def event_dir(self, event_id: str) -> Path:
+        """``<root>/<event_id>``.
+
+        Raises
+        ------
+        ReportError
+            If ``event_id`` is not a plain file name (empty, ``.``/``..``, or with a path
+            separator).
+        """
+        if not event_id or event_id in (".", "..") or "/" in event_id or "\\" in event_id:
+            raise ReportError(f"event id {event_id!r}: not usable as a directory name in "
+                              f"{self.root}")
+        return self.root / event_id
+
+    def window_file(self, event_id: str) -> Path:
+        """Where the window of an event is stored."""
+        return self.event_dir(event_id) / WINDOW_NPZ
+
+    # -- writing ----------------------------------------------------------------------------
+    def start_event(self, window: MeasuredWindow) -> Path:
+        """Store the window of an identification about to start; returns its file.
+
+        An earlier outcome of the same event (``result.json``, ``failed.json``) is removed:
+        until the new identification ends, the event is pending.
+
+        Raises
+        ------
+        ReportError
+            Naming the directory or file that cannot be written.
+        """
+        out = ensure_dir(self.event_dir(window.event_id))
+        try:
+            for name in (RESULT_JSON, FAILED_JSON):
+                (out / name).unlink(missing_ok=True)
+            return save_window(window, out / WINDOW_NPZ)
+        except OSError as err:
+            raise ReportError(f"{out}: cannot store the window: {err.strerror or err}") from err
+
+    def record_failure(self, result: IdentificationResult) -> Path:
+        """Write a failed result (``success`` false) as the event's ``failed.json``.
+
+        Raises
+        ------
+        ReportError
+            If the result is not a failure, or the file cannot be written.
+        """
+        if result.success:
+            raise ReportError(f"event {result.event_id!r}: record_failure takes a failed "
+                              "result (success false)")
+        path = ensure_dir(self.event_dir(result.event_id)) / FAILED_JSON
+        try:
+            return result.save_json(path)
+        except OSError as err:
+            raise ReportError(f"{path}: cannot write: {err.strerror or err}") from err
+
+    # -- questions --------------------------------------------------------------------------
+    def is_done(self, event_id: str) -> bool:
+        """Whether the event has a result or a failure record."""
+        d = self.event_dir(event_id)
+        return (d / RESULT_JSON).is_file() or (d / FAILED_JSON).is_file()
+
+    def results(self, pier_id: str | None = None) -> list[IdentificationResult]:
+        """Every readable ``result.json`` (of ``pier_id`` when given), oldest window first.
+
+        A file that cannot be read is skipped with a warning on this module's logger.
+        """
+        return self._load(RESULT_JSON, pier_id)
+
+    def failures(self, pier_id: str | None = None) -> list[IdentificationResult]:
+        """The failure records (of ``pier_id`` when given), oldest window first."""
+        return self._load(FAILED_JSON, pier_id)
+
+    def baseline_for(self, window: MeasuredWindow) -> IdentificationResult | None:
+        """The baseline of ``window``'s identification (see the module documentation).
+
+        The earliest successful result of the same pier whose window started before
+        ``window.start_time_ns``; None when there is none (compare with the design values).
+        """
+        earlier = [r for r in self.results(window.pier_id)
+                   if r.success and r.window_start_ns < window.start_time_ns]
+        return earlier[0] if earlier else None
+
+    def pending(self, inbox: str | Path | None = None) -> PendingWindows:
+        """Windows that are not done yet, oldest first, one per event.
+
+        Looks at the windows stored in the event directories and, when given, at the
+        ``*.npz`` windows of ``inbox`` (e.g. the live ingest's window directory); a window
+        stored in its event directory wins over one of the same event in the inbox.
+        """
+        files = sorted(self.root.glob(f"*/{WINDOW_NPZ}")) if self.root.is_dir() else []
+        if inbox is not None and Path(inbox).is_dir():
+            files += sorted(Path(inbox).glob("*.npz"))
+        found: dict[str, MeasuredWindow] = {}
+        unreadable = []
+        for path in files:
+            try:
+                window = load_window(path)
+            except InputDataError as err:
+                unreadable.append(str(err))
+                continue
+            if window.event_id not in found and not self.is_done(window.event_id):
+                found[window.event_id] = window
+        windows = sorted(found.values(), key=lambda w: (w.start_time_ns, w.event_id))
+        return PendingWindows(windows=tuple(windows), unreadable=tuple(unreadable))
+
+    def _load(self, name: str, pier_id: str | None) -> list[IdentificationResult]:
+        if not self.root.is_dir():
+            return []
+        out = []
+        for path in sorted(self.root.glob(f"*/{name}")):
+            try:
+                result = IdentificationResult.load_json(path)
+            except (OSError, ValueError, KeyError, TypeError) as err:
+                log.warning("%s: unreadable, skipped: %s", path, err)
+                continue
+            if pier_id is None or result.pier_id == pier_id:
+                out.append(result)
+        return sorted(out, key=lambda r: (r.window_start_ns, r.event_id))

@@ -1,0 +1,66 @@
+"""The ROS 2 package metadata: setup.py, setup.cfg, package.xml and the launch file agree."""
+
+from __future__ import annotations
+
+import ast
+import configparser
+import runpy
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pier_monitor
+
+ROOT = Path(__file__).resolve().parents[2]
+read_setup_kwargs = runpy.run_path(str(ROOT / "scripts" / "link_data_files.py"))[
+    "read_setup_kwargs"]
+
+
+def console_scripts() -> dict[str, str]:
+    kwargs = read_setup_kwargs(ROOT / "setup.py")
+    return dict(entry.replace(" ", "").split("=", 1)
+                for entry in kwargs["entry_points"]["console_scripts"])
+
+
+def test_setup_py_and_package_xml_describe_the_same_ament_python_package() -> None:
+    kwargs = read_setup_kwargs(ROOT / "setup.py")
+    xml = ET.parse(ROOT / "package.xml").getroot()
+    assert xml.get("format") == "3"
+    assert kwargs["name"] == xml.findtext("name") == "pier_monitor"
+    assert kwargs["version"] == xml.findtext("version") == pier_monitor.__version__
+    assert kwargs["license"] == xml.findtext("license")
+    maintainer = xml.find("maintainer")
+    assert (kwargs["maintainer"], kwargs["maintainer_email"]) == (maintainer.text,
+                                                                  maintainer.get("email"))
+    assert xml.find("export/build_type").text == "ament_python"
+    data = dict(kwargs["data_files"])
+    assert data["share/ament_index/resource_index/packages"] == ["resource/pier_monitor"]
+    assert (ROOT / "resource" / "pier_monitor").is_file()
+    assert data["share/pier_monitor"] == ["package.xml"]
+    assert data["share/pier_monitor/launch"] == ["launch/pier_monitor.launch.py"]
+    assert "pier_monitor_msgs" in {d.text for d in xml.findall("exec_depend")}
+
+
+def test_node_executables_are_installed_where_ros2_run_looks() -> None:
+    scripts = console_scripts()
+    assert scripts["ingest"] == "pier_monitor.nodes.ingest_node:main"
+    assert scripts["identifier"] == "pier_monitor.nodes.identifier_node:main"
+    for target in scripts.values():  # each names a function that exists (read, not imported)
+        module, func = target.split(":")
+        tree = ast.parse((ROOT / (module.replace(".", "/") + ".py")).read_text())
+        assert func in {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}, target
+    cfg = configparser.ConfigParser()
+    cfg.read(ROOT / "setup.cfg")
+    assert cfg["develop"]["script_dir"] == cfg["install"]["install_scripts"] == \
+        "$base/lib/pier_monitor"
+
+
+def test_the_launch_file_starts_the_declared_executables() -> None:
+    tree = ast.parse((ROOT / "launch" / "pier_monitor.launch.py").read_text())
+    assigned = {t.id: node.value for node in tree.body if isinstance(node, ast.Assign)
+                for t in node.targets if isinstance(t, ast.Name)}
+    nodes = ast.literal_eval(assigned["NODES"])
+    assert ast.literal_eval(assigned["PACKAGE"]) == "pier_monitor"
+    assert {executable for executable, _ in nodes} == {"ingest", "identifier"} <= set(
+        console_scripts())
+    assert "generate_launch_description" in {n.name for n in tree.body
+                                             if isinstance(n, ast.FunctionDef)}
