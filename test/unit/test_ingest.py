@@ -215,7 +215,7 @@ def test_long_gap_excludes_the_sensor_and_says_when(synthetic):
     windows, report = ingest_recording(with_sensor(rec, sid, time_ns=r.time_ns[keep],
                                                    data=r.data[keep],
                                                    sample_index=r.sample_index[keep]))
-    msgs = [m for c, w, m in report.events if c == "gap_excluded" and w == sid]
+    msgs = [f.message for f in report.findings if f.code == "gap_excluded" and f.where == sid]
     assert msgs and "400 missing samples (2.00 s)" in msgs[0]
     assert windows[0].report["channels"]["acceleration.2"] == 6  # 8 channels less its 2
     assert windows[1].report["channels"]["acceleration.2"] == 8  # run 2 is after the gap

@@ -116,31 +116,33 @@ def check_identification(params: SpringParameters, reproduced: Reproduced,
     return reasons
 
 
+def _ratio_reason(where: str, name: str, unit: str, value: float, ref: float,
+                  bounds: tuple[float, float], ref_name: str) -> list[str]:
+    """A reason when ``value / ref`` is outside ``bounds`` (none otherwise)."""
+    r = value / ref
+    if r < bounds[0]:
+        return [f"{where}: {name} = {value:.3g} {unit} is near zero ({r:.3g} of the "
+                f"{ref_name} {ref:.3g})"]
+    if r > bounds[1]:
+        return [f"{where}: {name} = {value:.3g} {unit} is {r:.3g} times the {ref_name} "
+                f"{ref:.3g}"]
+    return []
+
+
 def _parameter_reasons(params: SpringParameters, window: MeasuredWindow,
                        lim: CheckLimits) -> list[str]:
     reasons = []
-    design = window.design
     c_ref = _reference_damping(window)
     for i in range(params.n_springs):
         sec = f"section {i + 1}"
-        k1, k2, c = params.k1[i], params.k2[i], params.c[i]
-        r = k1 / design.k1[i]
-        if r < lim.k1_ratio[0]:
-            reasons.append(f"{sec}: k1 = {k1:.3g} N·m/rad is near zero ({r:.3g} of the design "
-                           f"{design.k1[i]:.3g})")
-        elif r > lim.k1_ratio[1]:
-            reasons.append(f"{sec}: k1 = {k1:.3g} N·m/rad is {r:.3g} times the design "
-                           f"{design.k1[i]:.3g}")
+        k1, k2 = params.k1[i], params.k2[i]
+        reasons += _ratio_reason(sec, "k1", "N·m/rad", k1, window.design.k1[i], lim.k1_ratio,
+                                 "design")
         if k2 >= lim.k2_cap * k1 * (1.0 - lim.bound_tol):
             reasons.append(f"{sec}: k2 = {k2:.3g} N·m/rad sits at its bound "
                            f"{lim.k2_cap:g} k1")
-        rc = c / c_ref[i]
-        if rc < lim.c_ratio[0]:
-            reasons.append(f"{sec}: c = {c:.3g} N·m·s/rad is near zero ({rc:.3g} of the "
-                           f"reference {c_ref[i]:.3g})")
-        elif rc > lim.c_ratio[1]:
-            reasons.append(f"{sec}: c = {c:.3g} N·m·s/rad is {rc:.3g} times the reference "
-                           f"{c_ref[i]:.3g}")
+        reasons += _ratio_reason(sec, "c", "N·m·s/rad", params.c[i], c_ref[i], lim.c_ratio,
+                                 "reference")
     return reasons
 
 

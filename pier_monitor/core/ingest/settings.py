@@ -224,11 +224,6 @@ class IngestReport:
         self.findings.append(finding)
         return finding
 
-    @property
-    def events(self) -> list[tuple[str, str, str]]:
-        """``(code, where, message)`` of every finding."""
-        return [(f.code, f.where, f.message) for f in self.findings]
-
     def codes(self, where: str | None = None) -> list[str]:
         """Codes recorded for a sensor (its channels included), a channel, or all."""
         return [f.code for f in self.findings
