@@ -386,26 +386,19 @@ def bridge_gaps(cs: CleanSensor, settings: IngestSettings, report: IngestReport)
     counts: dict[tuple[str, str], int] = {}
     for (s0, s1, cause), axes in sorted(runs.items()):
         length = s1 - s0 + 1
-        short = (length <= max_short and s0 > 0 and s1 < n - 1)
+        ends = [s0 - 1, s1 + 1]
+        short = (length <= max_short and s0 > 0 and s1 < n - 1
+                 and all(np.isfinite(cs.values[ends, j]).all() for j in axes))
         for j in axes:
-            col = cs.values[:, j]
-            if short and np.isfinite(col[s0 - 1]) and np.isfinite(col[s1 + 1]):
-                col[s0:s1 + 1] = np.interp(np.arange(s0, s1 + 1), [s0 - 1, s1 + 1],
-                                           [col[s0 - 1], col[s1 + 1]])
+            if short:
+                cs.values[s0:s1 + 1, j] = np.interp(np.arange(s0, s1 + 1), ends,
+                                                    cs.values[ends, j])
             else:
-                short = False
                 cs.usable[s0:s1 + 1, j] = False
-        if not short:  # an axis could not be bridged: exclude every axis of the run
-            for j in axes:
-                cs.usable[s0:s1 + 1, j] = False
-        where = (cs.spec.sensor_id if len(axes) == len(cs.spec.axes)
-                 else ", ".join(cs.channel(j) for j in axes))
         t0, t1 = cs.time_ns(s0), cs.time_ns(s1)
-        base = _CAUSE_CODES[cause]
-        code = (base + ("_interpolated" if short else "_excluded")) if cause == MISSING else base
-        action = "repaired" if short else "excluded"
-        done = "interpolated" if short else "excluded there"
+        code = _CAUSE_CODES[cause]
         if cause == MISSING:
+            code += "_interpolated" if short else "_excluded"
             text = (f"{length} missing samples ({length / cs.rate_hz:.2f} s) from "
                     f"{fmt_time(t0)} to {fmt_time(t1)}")
         elif cause == OUT_OF_RANGE:
@@ -415,11 +408,15 @@ def bridge_gaps(cs: CleanSensor, settings: IngestSettings, report: IngestReport)
         else:
             detail = cs.details.get((axes[0], s0), "departs from its neighbours")
             text = f"{length} samples {fmt_span(t0, t1)}: {detail}"
-        key = (where, code)
-        counts[key] = counts.get(key, 0) + 1
-        if counts[key] <= _MAX_FINDINGS:
-            report.add(code, where.split(", ")[0] if len(axes) == 1 else where, f"{text}; {done}",
-                       t0, t1, action)
-        elif counts[key] == _MAX_FINDINGS + 1:
-            report.add(code, where, f"more {code} findings from {fmt_time(t0)} on (only the "
-                       f"first {_MAX_FINDINGS} are listed)", t0, cs.time_ns(n - 1), action)
+        action, done = ("repaired", "interpolated") if short else ("excluded", "excluded there")
+        wheres = ([cs.spec.sensor_id] if len(axes) == len(cs.spec.axes)
+                  else [cs.channel(j) for j in axes])
+        for where in wheres:
+            key = (where, code)
+            counts[key] = counts.get(key, 0) + 1
+            if counts[key] <= _MAX_FINDINGS:
+                report.add(code, where, f"{text}; {done}", t0, t1, action)
+            elif counts[key] == _MAX_FINDINGS + 1:
+                report.add(code, where, f"more {code} findings from {fmt_time(t0)} on (only "
+                           f"the first {_MAX_FINDINGS} are listed)", t0, cs.time_ns(n - 1),
+                           action)

@@ -23,9 +23,9 @@ from pier_monitor.core.ingest.levels import (estimate_principal_direction, level
                                              level_motion_partial, level_noise_si)
 from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording
-from pier_monitor.core.ingest.settings import (EventIngest, Finding, IngestError,
-                                               IngestReport, IngestSettings,
-                                               LevelUnusableError, fmt_span, fmt_time)
+from pier_monitor.core.ingest.settings import (EventIngest, IngestError, IngestReport,
+                                               IngestSettings, LevelUnusableError, fmt_span,
+                                               fmt_time)
 from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
 
 __all__ = ["ingest_recording"]
@@ -159,17 +159,16 @@ def _explain(err: Exception, recording: Recording, report: IngestReport, start_n
     return f"{err} during {fmt_span(start_ns, end_ns)}{detail}"
 
 
-def _event_findings(report: IngestReport, start_ns: int, end_ns: int) -> tuple[Finding, ...]:
-    return tuple(report.within(start_ns, end_ns))
-
-
 def _ingest_event(recording: Recording, cleaned: list[CleanSensor], t0: int, rate: float,
                   span: EventSpan, ag_xy: np.ndarray, settings: IngestSettings,
                   report: IngestReport) -> EventIngest:
     """One event's outcome: its window, or why there is none."""
     config = recording.config
     n_all = ag_xy.shape[0]
-    to_ns = lambda i: t0 + int(round(i * NS_PER_S / rate))
+
+    def to_ns(i: int) -> int:
+        return t0 + int(round(i * NS_PER_S / rate))
+
     start_ns, end_ns = t0 + int(span.start * NS_PER_S / rate), to_ns(span.end - 1)
     event_id = make_event_id(config.pier_id, start_ns)
     ctx = int(round(settings.context_s * rate))
@@ -181,7 +180,7 @@ def _ingest_event(recording: Recording, cleaned: list[CleanSensor], t0: int, rat
                   f"shaking ({fmt_span(start_ns, end_ns)} of it recorded); no window")
         report.add("event_cut", event_id, reason, start_ns, end_ns, "failed")
         return EventIngest(event_id, start_ns, end_ns, None, reason, "cut",
-                           _event_findings(report, c0_ns, c1_ns))
+                           tuple(report.within(c0_ns, c1_ns)))
     direction = settings.principal_direction_deg
     if direction is None:
         direction = config.principal_direction_deg
@@ -201,8 +200,8 @@ def _ingest_event(recording: Recording, cleaned: list[CleanSensor], t0: int, rat
         reason = _explain(err, recording, report, c0_ns, c1_ns)
         report.add("event_failed", event_id, reason, start_ns, end_ns, "failed")
         return EventIngest(event_id, start_ns, end_ns, None, reason, "failed",
-                           _event_findings(report, c0_ns, c1_ns))
-    findings = _event_findings(report, c0_ns, c1_ns)
+                           tuple(report.within(c0_ns, c1_ns)))
+    findings = tuple(report.within(c0_ns, c1_ns))
     window = dataclasses.replace(window, report={**window.report,
                                                  "findings": [f.as_dict() for f in findings]})
     return EventIngest(event_id, start_ns, end_ns, window, None, "ingested", findings)
