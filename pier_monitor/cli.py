@@ -23,7 +23,7 @@ import numpy as np
 
 from pier_monitor.bags.synthetic_bag import SyntheticBagInfo, write_synthetic_edefense_bag
 from pier_monitor.bench import DEFAULT_SUITES, SUITES, format_table
-from pier_monitor.core.errors import PierMonitorError
+from pier_monitor.core.errors import PierMonitorError, ReportError
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.model.config import load_config
 from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
@@ -72,6 +72,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="sampling period of a one-column accelerogram file, s")
     sim.add_argument("--units", choices=("g", "gal", "mps2"), default="mps2",
                      help="unit of the accelerogram values (default mps2)")
+    sim.add_argument("--column", type=int, default=None,
+                     help="acceleration column of an accelerogram file with more than two "
+                          "columns, counted from 1 (time in column 1 unless --dt is given)")
     scale = sim.add_mutually_exclusive_group()
     scale.add_argument("--scale", type=_positive_float, help="multiply the record by S")
     scale.add_argument("--pga", type=_positive_float, help="scale the record to this PGA, m/s^2")
@@ -182,8 +185,18 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_out(path: Path) -> None:
+    """Refuse an output path below an existing file, naming it (before any work is done)."""
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ReportError(f"--out {path}: {parent} is a file, not a directory")
+            return
+
+
 def _cmd_simulate(args: argparse.Namespace) -> int:
     out: Path = args.out
+    _check_out(out)
     if out.suffix == ".npz":
         return _simulate_npz(args)
     return _simulate_bag(args)
@@ -196,7 +209,8 @@ def _simulate_npz(args: argparse.Namespace) -> int:
     else:
         (geometry, params), name = table1_model(), "table1"
     if args.ground_motion is not None:
-        gm = load_accelerogram(args.ground_motion, units=args.units, dt=args.dt)
+        gm = load_accelerogram(args.ground_motion, units=args.units, dt=args.dt,
+                               column=args.column)
     else:
         gm = synthetic_near_fault(seed=8 if args.seed is None else args.seed)
     if args.scale is not None:
@@ -206,7 +220,11 @@ def _simulate_npz(args: argparse.Namespace) -> int:
     output_dt = 1.0 / args.output_rate
     resp = simulate(geometry, params, gm.acc, gm.dt, output_dt=output_dt)
     df = ductility_factors(resp.theta, params)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ReportError(f"--out {args.out}: cannot create {args.out.parent}: "
+                          f"{err.strerror}") from err
     np.savez_compressed(
         args.out, **resp.as_dict(), section_heights_m=geometry.section_heights_m,
         masses_kg=geometry.masses_kg, k1=params.k1, k2=params.k2, fy=params.fy, c=params.c,
@@ -221,10 +239,11 @@ def _simulate_npz(args: argparse.Namespace) -> int:
 
 
 def _simulate_bag(args: argparse.Namespace) -> int:
-    if args.ground_motion is not None or args.scale is not None or args.pga is not None:
+    if (args.ground_motion is not None or args.scale is not None or args.pga is not None
+            or args.column is not None):
         raise PierMonitorError(
-            "--ground-motion/--scale/--pga apply to .npz output; the synthetic bag uses its own "
-            "seeded runs (choose them with --seed)")
+            "--ground-motion/--column/--scale/--pga apply to .npz output; the synthetic bag uses "
+            "its own seeded runs (choose them with --seed)")
     fmt = "mcap" if args.out.suffix == ".mcap" else "rosbag2"
     info = write_synthetic_edefense_bag(args.out, fmt=fmt, seed=0 if args.seed is None else
                                         args.seed, config_path=args.pier)

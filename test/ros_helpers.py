@@ -147,7 +147,7 @@ class Listener:
         self.states: list[Any] = []
         self.status: list[Any] = []
         self.diagnostics: list[Any] = []
-        self.progress: list[tuple[float, Any]] = []
+        self.progress: list[Any] = []
 
         def on_state(raw: bytes) -> None:  # knows only the .msg text: rosbags decodes
             self.states.append(typestore.deserialize_cdr(
@@ -160,8 +160,7 @@ class Listener:
         self.node.create_subscription(DiagnosticArray, "/diagnostics",
                                       self.diagnostics.append, 50)
         self.node.create_subscription(
-            IdentificationProgress, f"{NS}/identification_progress",
-            lambda m: self.progress.append((time.monotonic(), m)), 100)
+            IdentificationProgress, f"{NS}/identification_progress", self.progress.append, 100)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
