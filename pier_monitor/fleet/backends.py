@@ -239,10 +239,11 @@ class RayBackend:
     def busy(self) -> int:
         return len(self._running)
 
-    def wait(self) -> list[Finished]:
+    def wait(self, timeout_s: float | None = None) -> list[Finished]:
+        """Block until a task ends (or ``timeout_s`` passes: then maybe none)."""
         if not self._running:
             return []
-        ready, _ = self._ray.wait(list(self._running), num_returns=1)
+        ready, _ = self._ray.wait(list(self._running), num_returns=1, timeout=timeout_s)
         out = []
         for ref in ready:
             task = self._running.pop(ref)

@@ -171,9 +171,11 @@ def loaded_by(module: str) -> tuple[set[str], set[str]]:
 
 
 STDLIB = {
-    "__future__", "argparse", "array", "ast", "collections", "contextlib", "dataclasses",
+    "__future__", "argparse", "array", "ast", "collections", "concurrent", "contextlib",
+    "dataclasses",
     "datetime", "enum", "functools", "glob", "hashlib", "importlib", "io", "itertools", "json",
-    "logging", "math", "numbers", "os", "pathlib", "platform", "queue", "re", "selectors",
+    "logging", "math", "multiprocessing", "numbers", "os", "pathlib", "platform", "queue", "re",
+    "selectors",
     "shutil", "signal", "struct", "subprocess", "sys", "tempfile", "threading", "time",
     "typing", "warnings", "zipfile",
 }

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from ros_helpers import check_markers
 
 from pier_monitor import __version__
 from pier_monitor.core.identify.damage import IdentificationResult, SectionResult, classify_ductility
@@ -133,33 +134,6 @@ def test_damage_state_mcap_decodes_with_mcap_ros2(identified, written) -> None:
     *_, diagnostics = msgs["/diagnostics"]
     levels = [st.level for st in diagnostics.status if "/section_" in st.name]
     assert levels == [int(s.damage_state) for s in result.sections]  # OK/WARN/ERROR = 0/1/2
-
-
-def check_markers(markers, result) -> None:
-    """Cylinders and labels of a decoded MarkerArray against a result's sections."""
-    rgba = {"intact": (0.173, 0.627, 0.173), "suspicious": (1.0, 0.749, 0.0),
-            "damaged": (0.839, 0.153, 0.157), "unknown": (0.62, 0.62, 0.62)}
-    assert markers.markers[0].action == 3  # DELETEALL first
-    by_ns = {}
-    for m in markers.markers[1:]:
-        assert m.header.frame_id == result.pier_id
-        by_ns.setdefault(m.ns, []).append(m)
-    cylinders, labels = by_ns["sections"], by_ns["labels"]
-    assert len(cylinders) == len(labels) == len(result.sections)
-    for cyl, label, sec in zip(cylinders, labels, result.sections):
-        assert cyl.type == 3 and label.type == 9 and cyl.id == label.id == sec.index
-        want = rgba[sec.state]
-        assert (cyl.color.r, cyl.color.g, cyl.color.b) == pytest.approx(want, abs=2e-3)
-        assert (label.color.r, label.color.g, label.color.b) == pytest.approx(want, abs=2e-3)
-        assert cyl.pose.position.z == pytest.approx(0.5 * (sec.z_bottom_m + sec.z_top_m))
-        assert cyl.scale.z == pytest.approx(0.96 * (sec.z_top_m - sec.z_bottom_m))
-        assert label.text.startswith(f"S{sec.index + 1} {sec.state}")
-        if sec.state != "unknown":
-            df = f"{sec.ductility_factor:.2f}" if sec.yielded else f"<={sec.ductility_factor:.2f}"
-            assert f"DF {df}" in label.text
-            assert f"k1 {sec.k1_change_pct:+.1f} %" in label.text
-    (title,) = by_ns["pier"]
-    assert title.text.startswith(f"{result.pier_id} {result.overall_state.upper()}")
 
 
 def test_damage_state_fields_are_the_message_fields(msg_typestore) -> None:
