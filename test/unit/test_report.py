@@ -232,3 +232,25 @@ def test_cli_compare_names_a_missing_result(tmp_path: Path, capsys) -> None:
 
     assert main(["compare", str(tmp_path / "nope"), str(tmp_path / "nope2")]) == 2
     assert f"{tmp_path / 'nope'}: no such file" in capsys.readouterr().err
+
+
+def test_foxglove_layout_shows_the_topics_of_a_results_mcap() -> None:
+    """config/foxglove_layout.json: the markers in 3D, the section states, the diagnostics."""
+    from pier_monitor.report.diagnostics import DIAGNOSTICS_TOPIC
+    from pier_monitor.report.markers import damage_markers_topic
+
+    layout = json.loads((Path(__file__).resolve().parents[2] / "config" /
+                         "foxglove_layout.json").read_text())
+    panels = layout["configById"]
+    three_d = next(v for k, v in panels.items() if k.startswith("3D!"))
+    assert damage_markers_topic("edefense_pier") in three_d["topics"]
+    assert three_d["followTf"] == "edefense_pier"  # the markers' frame: the pier id
+    table = next(v for k, v in panels.items() if k.startswith("Table!"))
+    assert table["topicPath"] == damage_state_topic("edefense_pier") + ".sections"
+    diag = next(v for k, v in panels.items() if k.startswith("DiagnosticSummary!"))
+    assert diag["topicToRender"] == DIAGNOSTICS_TOPIC
+
+    def leaves(node):
+        return [node] if isinstance(node, str) else leaves(node["first"]) + leaves(node["second"])
+
+    assert sorted(leaves(layout["layout"])) == sorted(panels)
