@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from ros_helpers import (NS, REPO_ROOT, RUN_SCRIPT, TINY, Listener, interrupt, params_file,
-                         start_node)
+from ros_helpers import (NS, REPO_ROOT, RUN_SCRIPT, TINY, Listener, check_markers, interrupt,
+                         params_file, start_node)
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(170)]
 
@@ -120,6 +120,11 @@ def test_replayed_bag_is_fully_ingested_and_diagnosed_like_offline(
                     assert math.isnan(getattr(got, key))
                 else:
                     assert getattr(got, key) == pytest.approx(exp[key], rel=1e-6), key
+
+    # the pier as markers, one MarkerArray per damage state: colours and labels of its states
+    listener.wait(lambda: len(listener.markers) >= 2, 10, "two marker arrays")
+    for markers, ev in zip(listener.markers, offline.events, strict=True):
+        check_markers(markers, ev.result)
 
     # /diagnostics: one status per section of the last event, level from its DF class
     last = offline.events[-1].result
