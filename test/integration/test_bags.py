@@ -233,7 +233,7 @@ def test_truncated_bag_is_read_up_to_the_damage_and_run1_is_unchanged(written, f
     assert finding.code == "bag_truncated" and finding.where == str(bag)
     end_s = (finding.end_ns - written["expected"].start_ns) / 1e9
     assert 50.0 < end_s < 90.0  # cut between run 1 (ends ~47 s) and run 2 (starts ~97 s)
-    assert f"messages read up to the damage; its data end at 2024-03-12T01:0" in finding.message
+    assert "messages read up to the damage; its data end at 2024-03-12T01:0" in finding.message
     n_read = int(finding.message.split(": ")[-1].split(" messages")[0])
     assert 10_000 < n_read < written[fmt].summary()["messages"]
     windows, report = ingest_recording(recording)

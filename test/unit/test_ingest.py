@@ -9,7 +9,7 @@ import pytest
 from scipy import signal
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.ingest import IngestError, StreamIngest, ingest_recording
+from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.ingest.recording import Recording, SensorRecord
 from pier_monitor.core.resources import find_config_file
 from pier_monitor.core.model.config import load_config
