@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
 """Replay a bag into the live ROS graph, raw CDR bytes with their original header stamps.
 
-``replay_bag.py BAG [--rate R] [--wait-subscribers N] [--wait-timeout S]``
+``replay_bag.py BAG [--rate R] [--start-s S] [--end-s S] [--wait-subscribers N]
+[--wait-timeout S]``
 
 Messages go out on the bag's own (absolute) topics, paced by their log times at ``--rate``
-times real time (``0``: as fast as the middleware takes them).  The pier configuration
-topic is offered latched.  Before playing, the script waits until every sensor topic has
+times real time (``0``: as fast as the middleware takes them).  ``--start-s`` and
+``--end-s`` play only the messages logged in ``[start, end)`` seconds after the bag's first
+message (a bag replayed in parts: no message twice, none left out).  The pier configuration
+topic is offered latched: the configuration in force at the start.  Before playing, the script waits until every sensor topic has
 ``--wait-subscribers`` subscriptions (the ingest node subscribes once it has the
 configuration).  At the end it waits for reliable delivery and prints one line::
 
@@ -38,6 +41,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("bag", type=Path)
     parser.add_argument("--rate", type=float, default=1.0,
                         help="times real time; 0 = as fast as possible")
+    parser.add_argument("--start-s", type=float, default=0.0,
+                        help="play from this many seconds after the first message")
+    parser.add_argument("--end-s", type=float, default=float("inf"),
+                        help="play up to (not including) this many seconds after it")
     parser.add_argument("--wait-subscribers", type=int, default=1)
     parser.add_argument("--wait-timeout", type=float, default=30.0, help="s")
     args, ros_args = parser.parse_known_args(argv)
@@ -54,8 +61,14 @@ def main(argv: list[str] | None = None) -> int:
                 pubs[conn.topic] = node.create_publisher(
                     message_class(conn.msgtype), conn.topic, LATCHED_QOS if latched else SENSOR_QOS)
             msgs = list(reader.messages())
-            # configuration first, then wait for the sensor subscriptions
-            config_first = [m for m in msgs if m[0].topic.endswith("/pier_configuration")][:1]
+            first_ns = msgs[0][1]
+            start_ns = first_ns + int(args.start_s * 1e9)
+            end_ns = first_ns + args.end_s * 1e9
+            configs = [m for m in msgs if m[0].topic.endswith("/pier_configuration")]
+            # the configuration in force at the start first, then wait for the subscriptions
+            config_first = ([m for m in configs if m[1] <= start_ns] or configs)[-1:]
+            msgs = [m for m in msgs
+                    if start_ns <= m[1] < end_ns or any(m is c for c in config_first)]
             for conn, _, raw in config_first:
                 pubs[conn.topic].publish(bytes(raw))
             sensor_topics = [c.topic for c in reader.connections
@@ -73,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
             time.sleep(0.5)  # let the new readers finish matching every writer
             print(f"PLAYING {len(msgs)} messages", flush=True)
             n_msgs = n_samples = n_blocks = 0
-            t0_log = msgs[0][1]
+            t0_log = max(msgs[0][1], start_ns)
             t0_wall = time.monotonic()
             for conn, log_ns, raw in msgs:
                 if config_first and (conn, log_ns) == (config_first[0][0], config_first[0][1]):

@@ -18,6 +18,7 @@ import numpy as np
 
 from pier_monitor.bags import read_bag
 from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
+from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.ingest.window import MeasuredWindow
@@ -26,9 +27,11 @@ from pier_monitor.core.model.ground_motion import GroundMotion, el_centro_1940, 
 from pier_monitor.core.model.solver import HAVE_NUMBA, Response, simulate
 from pier_monitor.core.synthetic.reference import (paper_case_window, realistic_case_window,
                                                    table1_model)
+from pier_monitor.fleet import FleetOptions, LocalPool, RayBackend, run_fleet
 from pier_monitor.pinn import PinnSettings, identify
 
-__all__ = ["bench_solver", "bench_ingest", "bench_paper", "bench_more", "run_identification_case",
+__all__ = ["bench_solver", "bench_ingest", "bench_paper", "bench_more", "bench_fleet",
+           "run_identification_case",
            "score_identification", "SUITES", "DEFAULT_SUITES", "format_table"]
 
 
@@ -191,11 +194,55 @@ def bench_ingest() -> list[dict[str, Any]]:
              "device": f"cpu ({platform.processor() or platform.machine()})"}]
 
 
+def bench_fleet(piers: int = 4, max_epochs: int = 100) -> list[dict[str, Any]]:
+    """Events per minute of ``pier-monitor fleet`` with 1 and 2 workers, local pool and Ray.
+
+    A synthetic fleet of ``piers`` small piers (2-4 sections, 12 s records, seed 0) is
+    identified with a short training (``max_epochs``, CPU, no figures) into a fresh results
+    root per case.  Per case: wall time, events per minute, time to the first result; Ray's
+    start-up is timed apart, and its overhead per task is its wall time less the local
+    pool's with as many workers, per event.
+    """
+    settings = PinnSettings(device="cpu", seed=0, max_epochs=max_epochs, min_epochs=1)
+    options = FleetOptions(settings=settings, figures=False)
+    out: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        bags = Path(tmp) / "bags"
+        write_synthetic_fleet(bags, piers, seed=0, fmt="mixed", record_s=12.0, lead_s=8.0,
+                              gap_s=14.0, tail_s=10.0, sections=(2, 4))
+        for name in ("local", "ray"):
+            for workers in (1, 2):
+                t0 = time.perf_counter()
+                backend: LocalPool | RayBackend = (
+                    LocalPool(workers) if name == "local" else RayBackend(num_cpus=workers))
+                start_s = time.perf_counter() - t0
+                try:
+                    run = run_fleet([bags], Path(tmp) / f"{name}{workers}", backend, options)
+                finally:
+                    backend.close()
+                events = run.identified + run.failed
+                out.append({"case": f"fleet_{name}_{workers}w",
+                            "description": f"{piers} synthetic piers, {events} events, "
+                                           f"{max_epochs} epochs max, CPU, {name} backend",
+                            "backend": name, "workers": workers, "events": events,
+                            "failed": run.failed, "wall_s": run.wall_s,
+                            "events_per_min": 60.0 * events / run.wall_s,
+                            "first_result_s": run.first_result_s, "backend_start_s": start_s,
+                            "device": f"cpu ({platform.processor() or platform.machine()})"})
+    local = {r["workers"]: r for r in out if r["backend"] == "local"}
+    for r in out:
+        if r["backend"] == "ray":
+            base = local[r["workers"]]
+            r["overhead_per_task_s"] = (r["wall_s"] - base["wall_s"]) / max(r["events"], 1)
+    return out
+
+
 SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "solver": bench_solver,
     "ingest": bench_ingest,
     "paper": bench_paper,
     "more": bench_more,
+    "fleet": bench_fleet,
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.
@@ -210,6 +257,13 @@ def format_table(results: list[dict[str, Any]]) -> str:
             lines.append(f"{r['case']}: {r['wall_s']:.3f} s (first call {r['first_call_s']:.3f} "
                          f"s, numba={r['numba']}, {r['steps']} steps), DF "
                          f"{r['ductility_factors']}")
+        elif r["case"].startswith("fleet"):
+            first = "-" if r["first_result_s"] is None else f"{r['first_result_s']:.1f} s"
+            extra = f", Ray start {r['backend_start_s']:.1f} s, overhead per task " \
+                    f"{r['overhead_per_task_s']:+.2f} s" if "overhead_per_task_s" in r else ""
+            lines.append(f"{r['case']}: {r['events']} events in {r['wall_s']:.1f} s = "
+                         f"{r['events_per_min']:.1f} events/min, first result after "
+                         f"{first}{extra}")
         elif r["case"].startswith("ingest"):
             lines.append(f"{r['case']} ({r['description']}): read {r['read_s']:.2f} s + ingest "
                          f"{r['ingest_s']:.2f} s = {r['per_60s_of_data_s']:.2f} s per 60 s of "

@@ -6,6 +6,7 @@ simulate  simulate a pier under a ground motion; write responses (.npz) or a syn
           E-Defense-style bag (rosbag2 directory or .mcap) with its ground truth
 bench     benchmarks against known truth (prints a table, ``--json`` writes results)
 identify  ingest a bag, identify every event with the PINN, write results and figures
+fleet     identify every event of many bags on a process pool or a Ray cluster
 compare   change between two identification results of the same pier
 demo      the main job on the embedded default data
 """
@@ -22,13 +23,15 @@ from pathlib import Path
 import numpy as np
 
 from pier_monitor.bags.synthetic_bag import SyntheticBagInfo, write_synthetic_edefense_bag
+from pier_monitor.bags.synthetic_fleet import FLEET_TRUTH_JSON, write_synthetic_fleet
 from pier_monitor.bench import DEFAULT_SUITES, SUITES, format_table
-from pier_monitor.core.errors import PierMonitorError
+from pier_monitor.core.errors import PierMonitorError, ReportError
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.model.config import load_config
 from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
 from pier_monitor.core.model.solver import simulate
 from pier_monitor.core.synthetic.reference import table1_model
+from pier_monitor.fleet import FleetOptions, FleetProgress, LocalPool, RayBackend, run_fleet
 from pier_monitor.pinn import PinnSettings
 from pier_monitor.pipeline import BagOutcome, identify_bag
 from pier_monitor.progress import TrainingProgress
@@ -72,6 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="sampling period of a one-column accelerogram file, s")
     sim.add_argument("--units", choices=("g", "gal", "mps2"), default="mps2",
                      help="unit of the accelerogram values (default mps2)")
+    sim.add_argument("--column", type=int, default=None,
+                     help="acceleration column of an accelerogram file with more than two "
+                          "columns, counted from 1 (time in column 1 unless --dt is given)")
     scale = sim.add_mutually_exclusive_group()
     scale.add_argument("--scale", type=_positive_float, help="multiply the record by S")
     scale.add_argument("--pga", type=_positive_float, help="scale the record to this PGA, m/s^2")
@@ -80,11 +86,22 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--output-rate", type=_positive_float, default=100.0,
                      help="output sampling rate of .npz responses, Hz (default 100)")
     sim.add_argument("--out", type=Path, required=True, help="OUT.npz, OUT.mcap or a bag directory")
+    sim.add_argument("--fleet", type=int, metavar="N", default=None,
+                     help="write N synthetic piers (2-8 sections, sensor layouts, motions, damage "
+                          "levels) into the directory OUT: one bag each, its truth beside it and "
+                          "fleet_truth.json")
+    sim.add_argument("--layout", action="append", default=None,
+                     help="sensor layout of the fleet's piers, repeatable, given in turn "
+                          "(default: full, the shaking-table layout)")
+    sim.add_argument("--bag-format", choices=("mcap", "rosbag2", "mixed"), default="mcap",
+                     help="bag format of the fleet's piers (mixed: alternating)")
+    sim.add_argument("--record-s", type=_positive_float, default=30.0,
+                     help="length of each table record of the fleet's piers, s (default 30)")
 
     bench = sub.add_parser("bench", help="benchmarks against known truth",
                            description="Run benchmarks with fixed seeds; print a table.")
     bench.add_argument("--suite", action="append", default=None,
-                       help="suite to run (repeatable): solver, ingest, paper, more "
+                       help="suite to run (repeatable): solver, ingest, paper, more, fleet "
                             "(default: solver, ingest and paper)")
     bench.add_argument("--all", action="store_true",
                        help="every suite: adds noise 0.1/10 mgal, a long-duration record and "
@@ -104,6 +121,31 @@ def build_parser() -> argparse.ArgumentParser:
                        help="pier configuration YAML to use instead of the bag's (required for "
                             "a bag recorded without one)")
     _add_training_options(ident)
+
+    fleet = sub.add_parser(
+        "fleet", help="identify every event of many bags, in parallel",
+        description="Find the bags (rosbag2 directories and .mcap files) under the paths given, "
+                    "ingest each once, identify every event as a task of its own on a local "
+                    "process pool (default) or a Ray cluster, and write one results directory "
+                    "per event into OUT with the fleet summary (fleet.json, fleet.png, "
+                    "fleet_state.mcap). A rerun skips the events that have a result.")
+    fleet.add_argument("paths", type=Path, nargs="+", metavar="BAG_OR_DIR",
+                       help="bags and directories searched for bags")
+    fleet.add_argument("--out", type=Path, required=True, help="results root")
+    backend = fleet.add_mutually_exclusive_group()
+    backend.add_argument("--workers", type=int, default=None,
+                         help="processes of the local pool (default: one per CPU)")
+    backend.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                         help="run on Ray: 'auto' (the cluster of this machine), an address "
+                              "(host:port, ray://host:10001), or nothing for a local instance")
+    fleet.add_argument("--force", action="store_true",
+                       help="identify every event again, also those with a result")
+    fleet.add_argument("--no-figures", action="store_true",
+                       help="no per-event figures (a few seconds less per event)")
+    fleet.add_argument("--gpus-per-task", type=_positive_float, default=0.25,
+                       help="share of a GPU per event when training on CUDA with Ray "
+                            "(default 0.25: four events per GPU)")
+    _add_training_options(fleet)
 
     demo = sub.add_parser("demo", help="the main job on the embedded synthetic bag",
                           description="Write the synthetic E-Defense-style bag (two runs of "
@@ -140,13 +182,19 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
                         help="no training progress (a bar on a terminal, else a line every 10 s)")
 
 
-def _identify(bag: Path, out: Path, args: argparse.Namespace,
-              pier: Path | None = None) -> BagOutcome:
-    """Run :func:`pier_monitor.pipeline.identify_bag` with training progress on stderr."""
+def _settings(args: argparse.Namespace) -> PinnSettings:
+    """The training settings of the command line's options."""
     settings = PinnSettings(device=args.device, seed=args.train_seed)
     if args.max_epochs is not None:
         settings.max_epochs = args.max_epochs
         settings.min_epochs = min(settings.min_epochs, args.max_epochs)
+    return settings
+
+
+def _identify(bag: Path, out: Path, args: argparse.Namespace,
+              pier: Path | None = None) -> BagOutcome:
+    """Run :func:`pier_monitor.pipeline.identify_bag` with training progress on stderr."""
+    settings = _settings(args)
     config = load_config(pier) if pier is not None else None
     if args.no_progress:
         return identify_bag(bag, out, settings=settings, config=config)
@@ -182,8 +230,46 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_out(path: Path) -> None:
+    """Refuse an output path below an existing file, naming it (before any work is done)."""
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ReportError(f"--out {path}: {parent} is a file, not a directory")
+            return
+
+
+def _cmd_fleet(args: argparse.Namespace) -> int:
+    options = FleetOptions(settings=_settings(args), figures=not args.no_figures,
+                           force=args.force, gpus_per_task=args.gpus_per_task)
+    if args.ray is not None:
+        backend: LocalPool | RayBackend = RayBackend(args.ray or None)
+    else:
+        backend = LocalPool(args.workers)
+    progress = None if args.no_progress else FleetProgress()
+    try:
+        run = run_fleet(args.paths, args.out, backend, options, progress)
+    finally:
+        if progress is not None:
+            progress.close()
+        backend.close()
+    print(run.summary.table())
+    first = "-" if run.first_result_s is None else f"{run.first_result_s:.0f} s"
+    print(f"\n{len(run.bags)} bags on {run.backend} ({run.workers} workers): {run.identified} "
+          f"events identified, {run.failed} failed, {run.skipped} skipped (done before), "
+          f"{run.retried} retried; {run.wall_s:.0f} s, first result after {first}")
+    for bag, error in run.failed_bags:
+        print(f"not ingested: {bag}: {error}")
+    print(f"wrote {run.paths.fleet_json}, {run.paths.fleet_png}"
+          + (f", {run.paths.fleet_state_mcap}" if run.paths.fleet_state_mcap else ""))
+    return 0 if not run.failed and not run.failed_bags else 1
+
+
 def _cmd_simulate(args: argparse.Namespace) -> int:
     out: Path = args.out
+    _check_out(out)
+    if args.fleet is not None:
+        return _simulate_fleet(args)
     if out.suffix == ".npz":
         return _simulate_npz(args)
     return _simulate_bag(args)
@@ -196,7 +282,8 @@ def _simulate_npz(args: argparse.Namespace) -> int:
     else:
         (geometry, params), name = table1_model(), "table1"
     if args.ground_motion is not None:
-        gm = load_accelerogram(args.ground_motion, units=args.units, dt=args.dt)
+        gm = load_accelerogram(args.ground_motion, units=args.units, dt=args.dt,
+                               column=args.column)
     else:
         gm = synthetic_near_fault(seed=8 if args.seed is None else args.seed)
     if args.scale is not None:
@@ -206,7 +293,11 @@ def _simulate_npz(args: argparse.Namespace) -> int:
     output_dt = 1.0 / args.output_rate
     resp = simulate(geometry, params, gm.acc, gm.dt, output_dt=output_dt)
     df = ductility_factors(resp.theta, params)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ReportError(f"--out {args.out}: cannot create {args.out.parent}: "
+                          f"{err.strerror}") from err
     np.savez_compressed(
         args.out, **resp.as_dict(), section_heights_m=geometry.section_heights_m,
         masses_kg=geometry.masses_kg, k1=params.k1, k2=params.k2, fy=params.fy, c=params.c,
@@ -221,14 +312,31 @@ def _simulate_npz(args: argparse.Namespace) -> int:
 
 
 def _simulate_bag(args: argparse.Namespace) -> int:
-    if args.ground_motion is not None or args.scale is not None or args.pga is not None:
+    if (args.ground_motion is not None or args.scale is not None or args.pga is not None
+            or args.column is not None):
         raise PierMonitorError(
-            "--ground-motion/--scale/--pga apply to .npz output; the synthetic bag uses its own "
-            "seeded runs (choose them with --seed)")
+            "--ground-motion/--column/--scale/--pga apply to .npz output; the synthetic bag uses "
+            "its own seeded runs (choose them with --seed)")
     fmt = "mcap" if args.out.suffix == ".mcap" else "rosbag2"
     info = write_synthetic_edefense_bag(args.out, fmt=fmt, seed=0 if args.seed is None else
                                         args.seed, config_path=args.pier)
     print(_bag_summary(info))
+    return 0
+
+
+def _simulate_fleet(args: argparse.Namespace) -> int:
+    written = write_synthetic_fleet(args.out, args.fleet, seed=0 if args.seed is None else
+                                    args.seed, layouts=tuple(args.layout or ("full",)),
+                                    fmt=args.bag_format, record_s=args.record_s)
+    print(f"wrote {len(written)} piers into {args.out} (truth: {args.out / FLEET_TRUTH_JSON})")
+    print(f"{'pier':<10} {'format':<8} {'layout':<7} {'sections':>8} {'damage':<9} "
+          "runs: PGA m/s2 -> true ductility factors (bottom to top)")
+    for w in written:
+        s = w.summary()
+        runs = "; ".join(f"{r['pga_mps2']:.2f} -> {', '.join(f'{d:.2f}' for d in r['ductility_factors'])}"
+                         for r in s["runs"])
+        print(f"{s['pier_id']:<10} {s['format']:<8} {s['layout']:<7} {s['sections']:>8} "
+              f"{s['damage']:<9} {runs}")
     return 0
 
 
@@ -304,7 +412,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 
 _COMMANDS = {"simulate": _cmd_simulate, "bench": _cmd_bench, "demo": _cmd_demo,
-             "compare": _cmd_compare, "identify": _cmd_identify}
+             "compare": _cmd_compare, "identify": _cmd_identify, "fleet": _cmd_fleet}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

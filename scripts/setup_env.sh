@@ -85,7 +85,7 @@ say "installing pier_monitor (editable)"
 "$PY" scripts/link_data_files.py
 
 say "checking imports"
-"$PY" -c 'import importlib.util, rclpy, pier_monitor_msgs.msg, sensor_msgs.msg, diagnostic_msgs.msg, rosbags, torch
+"$PY" -c 'import importlib.util, rclpy, pier_monitor_msgs.msg, sensor_msgs.msg, diagnostic_msgs.msg, visualization_msgs.msg, rosbags, torch, ray
 assert importlib.util.find_spec("pier_monitor"), "pier_monitor is not installed"' \
     || die "the environment was built but does not import; see the error above"
 

@@ -117,6 +117,37 @@ def assert_fields_equal(expected: Any, actual: Any, path: str = "msg") -> None:
             assert_fields_equal(want, got, f"{path}[{i}]")
 
 
+def check_markers(markers: Any, result: Any) -> None:
+    """Cylinders and labels of a decoded MarkerArray against a result's sections.
+
+    Colours: intact green, suspicious amber, damaged red, unknown grey; labels
+    ``S<n> <state> DF <DF> k1 <change> %``.
+    """
+    rgba = {"intact": (0.173, 0.627, 0.173), "suspicious": (1.0, 0.749, 0.0),
+            "damaged": (0.839, 0.153, 0.157), "unknown": (0.62, 0.62, 0.62)}
+    assert markers.markers[0].action == 3  # DELETEALL first
+    by_ns = {}
+    for m in markers.markers[1:]:
+        assert m.header.frame_id == result.pier_id
+        by_ns.setdefault(m.ns, []).append(m)
+    cylinders, labels = by_ns["sections"], by_ns["labels"]
+    assert len(cylinders) == len(labels) == len(result.sections)
+    for cyl, label, sec in zip(cylinders, labels, result.sections):
+        assert cyl.type == 3 and label.type == 9 and cyl.id == label.id == sec.index
+        want = rgba[sec.state]
+        assert (cyl.color.r, cyl.color.g, cyl.color.b) == pytest.approx(want, abs=2e-3)
+        assert (label.color.r, label.color.g, label.color.b) == pytest.approx(want, abs=2e-3)
+        assert cyl.pose.position.z == pytest.approx(0.5 * (sec.z_bottom_m + sec.z_top_m))
+        assert cyl.scale.z == pytest.approx(0.96 * (sec.z_top_m - sec.z_bottom_m))
+        assert label.text.startswith(f"S{sec.index + 1} {sec.state}")
+        if sec.state != "unknown":
+            df = f"{sec.ductility_factor:.2f}" if sec.yielded else f"<={sec.ductility_factor:.2f}"
+            assert f"DF {df}" in label.text
+            assert f"k1 {sec.k1_change_pct:+.1f} %" in label.text
+    (title,) = by_ns["pier"]
+    assert title.text.startswith(f"{result.pier_id} {result.overall_state.upper()}")
+
+
 def params_file(path: Path, data: Path, **identifier: Any) -> Path:
     """A ros__parameters file for both nodes (tiny training unless overridden).
 
@@ -140,6 +171,7 @@ class Listener:
         from diagnostic_msgs.msg import DiagnosticArray
         from pier_monitor_msgs.msg import IdentificationProgress, PierDamageState
         from rclpy.executors import SingleThreadedExecutor
+        from visualization_msgs.msg import MarkerArray
 
         from pier_monitor.nodes.qos import DAMAGE_STATE_QOS
 
@@ -147,7 +179,8 @@ class Listener:
         self.states: list[Any] = []
         self.status: list[Any] = []
         self.diagnostics: list[Any] = []
-        self.progress: list[tuple[float, Any]] = []
+        self.progress: list[Any] = []
+        self.markers: list[Any] = []
 
         def on_state(raw: bytes) -> None:  # knows only the .msg text: rosbags decodes
             self.states.append(typestore.deserialize_cdr(
@@ -155,13 +188,16 @@ class Listener:
 
         self.node.create_subscription(PierDamageState, f"{NS}/damage_state", on_state,
                                       DAMAGE_STATE_QOS, raw=True)
+        self.node.create_subscription(  # decoded from the CDR bytes, as a viewer would
+            MarkerArray, f"{NS}/damage_markers",
+            lambda raw: self.markers.append(typestore.deserialize_cdr(
+                raw, "visualization_msgs/msg/MarkerArray")), DAMAGE_STATE_QOS, raw=True)
         self.node.create_subscription(DiagnosticArray, f"{NS}/ingest_status",
                                       self.status.append, 10)
         self.node.create_subscription(DiagnosticArray, "/diagnostics",
                                       self.diagnostics.append, 50)
         self.node.create_subscription(
-            IdentificationProgress, f"{NS}/identification_progress",
-            lambda m: self.progress.append((time.monotonic(), m)), 100)
+            IdentificationProgress, f"{NS}/identification_progress", self.progress.append, 100)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)

@@ -10,11 +10,13 @@ the repository's ``msg_defs/msg``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_msg
 from rosbags.typesys import get_typestore as _get_typestore
 from rosbags.typesys.store import Typestore
@@ -36,6 +38,7 @@ __all__ = [
     "find_msg_dir",
     "get_typestore",
     "message_definition",
+    "message_from_fields",
 ]
 
 MSG_PACKAGE = "pier_monitor_msgs"
@@ -142,3 +145,59 @@ def message_definition(typename: str) -> tuple[str, str]:
     typestore = get_typestore()
     msgdef, _ = typestore.generate_msgdef(typename, ros_version=2)
     return msgdef, typestore.hash_rihs01(typename)
+
+
+_NUMPY_TYPES = {"bool": np.bool_, "byte": np.uint8, "char": np.uint8, "octet": np.uint8,
+                "int8": np.int8, "uint8": np.uint8, "int16": np.int16, "uint16": np.uint16,
+                "int32": np.int32, "uint32": np.uint32, "int64": np.int64,
+                "uint64": np.uint64, "float32": np.float32, "float64": np.float64}
+
+
+def _field_value(typestore: Typestore, node: tuple[Any, Any], value: Any, where: str) -> Any:
+    """A field's value as rosbags wants it; ``value`` None gives the type's default."""
+    nodetype, desc = node
+    if nodetype == Nodetype.NAME:
+        return message_from_fields(desc, value or {}, _where=where)
+    if nodetype == Nodetype.BASE:
+        base = desc[0]
+        if value is not None:
+            return value
+        return "" if base in ("string", "wstring") else False if base == "bool" else \
+            0.0 if base.startswith("float") else 0
+    (sub_type, sub_desc), length = desc
+    if sub_type == Nodetype.BASE and sub_desc[0] in _NUMPY_TYPES:
+        dtype = _NUMPY_TYPES[sub_desc[0]]
+        default = np.zeros(length if nodetype == Nodetype.ARRAY else 0, dtype=dtype)
+        return default if value is None else np.asarray(value, dtype=dtype)
+    items = list(value or [])
+    if nodetype == Nodetype.ARRAY and not items:
+        items = [None] * length
+    return [_field_value(typestore, (sub_type, sub_desc), v, f"{where}[{i}]")
+            for i, v in enumerate(items)]
+
+
+def message_from_fields(typename: str, fields: Mapping[str, Any], *, _where: str = "") -> Any:
+    """A rosbags message object of ``typename`` from a mapping of (some of) its fields.
+
+    Nested messages are mappings, sequences of messages lists of mappings; a field left out
+    gets its type's zero value (0, ``""``, False, an empty sequence, a nested message of
+    zeros).  Mind the fields whose ``.msg`` default is not zero (e.g. a quaternion's ``w``).
+
+    Raises
+    ------
+    BagError
+        If the type is unknown or a key is not a field of it (naming the dotted path).
+    """
+    typestore = get_typestore()
+    where = _where or typename
+    if typename not in typestore.fielddefs:
+        raise BagError(f"{where}: unknown message type {typename!r}")
+    _, fielddefs = typestore.fielddefs[typename]
+    names = [name for name, _ in fielddefs]
+    unknown = sorted(set(fields) - set(names))
+    if unknown:
+        raise BagError(f"{where}.{unknown[0]}: not a field of {typename} (fields: "
+                       f"{', '.join(names)})")
+    kwargs = {name: _field_value(typestore, node, fields.get(name), f"{where}.{name}")
+              for name, node in fielddefs}
+    return typestore.types[typename](**kwargs)

@@ -12,6 +12,7 @@ __all__ = [
     "ConfigError",
     "InputDataError",
     "GroundMotionError",
+    "UnsafeNameError",
     "SolverError",
     "BagError",
     "IdentificationError",
@@ -36,6 +37,11 @@ class InputDataError(PierMonitorError):
 
 class GroundMotionError(InputDataError):
     """A ground-motion (accelerogram) file or array cannot be used."""
+
+
+class UnsafeNameError(InputDataError):
+    """An id that becomes a file or directory name is empty, too long or has characters
+    outside ``[A-Za-z0-9_-]``, or an output path would leave its root directory."""
 
 
 class SolverError(PierMonitorError):

@@ -17,14 +17,16 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from pier_monitor_msgs.msg import (IdentificationProgress, MainshockWindow, PierDamageState,
                                    SampleBlock, SectionState)
 from sensor_msgs.msg import Imu
+from visualization_msgs.msg import Marker, MarkerArray
 
 from pier_monitor.bags.types import sample_block_arrays
 from pier_monitor.core.errors import InputDataError, PierMonitorError
-from pier_monitor.core.identify.damage import DamageState
 from pier_monitor.core.ingest.recording import ns_to_stamp, stamp_to_ns
 from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
 from pier_monitor.core.model.config import (PierConfig, PierGeometry, SensorSpec,
                                             SpringParameters)
+from pier_monitor.report.diagnostics import diagnostics_fields
+from pier_monitor.report.markers import damage_markers_fields
 
 if TYPE_CHECKING:  # the type only: the ingest node does not load the PINN (torch)
     from pier_monitor.pinn import Progress
@@ -41,7 +43,7 @@ __all__ = [
     "damage_state_msg",
     "progress_msg",
     "damage_diagnostics",
-    "DIAGNOSTIC_LEVELS",
+    "damage_markers_msg",
 ]
 
 
@@ -49,13 +51,6 @@ class MessageError(InputDataError):
     """A message that does not match what its topic must carry (names topic and field)."""
 
 
-#: DiagnosticStatus level of each SectionState.STATE_* code.
-DIAGNOSTIC_LEVELS = {
-    SectionState.STATE_INTACT: DiagnosticStatus.OK,
-    SectionState.STATE_SUSPICIOUS: DiagnosticStatus.WARN,
-    SectionState.STATE_DAMAGED: DiagnosticStatus.ERROR,
-    SectionState.STATE_UNKNOWN: DiagnosticStatus.STALE,
-}
 #: MainshockWindow noise fields and the NoiseModel attribute each carries.
 _NOISE_FIELDS = (("acceleration_sigma", "a"), ("velocity_sigma", "v"),
                  ("displacement_sigma", "x"), ("displacement_increment_sigma", "dx"),
@@ -252,6 +247,8 @@ def _sequence_class(msg: Any, name: str) -> type:
         return DiagnosticStatus
     if isinstance(msg, DiagnosticStatus) and name == "values":
         return KeyValue
+    if isinstance(msg, MarkerArray) and name == "markers":
+        return Marker
     raise TypeError(f"no message class known for {type(msg).__name__}.{name}")
 
 
@@ -276,17 +273,9 @@ def progress_msg(event_id: str, progress: Progress, stamp_ns: int) -> Identifica
     return msg
 
 
-def _fmt(value: float) -> str:
-    return "nan" if value is None or not math.isfinite(value) else f"{value:.6g}"
-
-
 def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray:
-    """``/diagnostics`` of a damage state: one status per section, then the identifier's.
-
-    A section is OK / WARN / ERROR when intact / suspicious / damaged, STALE when there is no
-    diagnosis; its values are k1, its change from the baseline, DF, k2, fy and c.  The
-    identifier's status is OK, or ERROR when the identification failed, with the event,
-    epochs and device.
+    """``/diagnostics`` of a damage state (:func:`pier_monitor.report.diagnostics.
+    diagnostics_fields`): one status per section, then the identifier's.
 
     Parameters
     ----------
@@ -295,37 +284,12 @@ def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray
     stamp_ns : int
         ``header.stamp``, ns since the Unix epoch.
     """
-    arr = DiagnosticArray()
-    arr.header.stamp = ns_to_time(stamp_ns)
-    pier = fields["pier_id"]
-    for s in fields["sections"]:
-        st = DiagnosticStatus()
-        st.level = DIAGNOSTIC_LEVELS[s["state"]]
-        st.name = f"pier_monitor/{pier}/section_{s['index'] + 1}"
-        st.hardware_id = pier
-        state = DamageState(s["state"]).name.lower()
-        if fields["success"]:
-            st.message = (f"{state}: DF {_fmt(s['ductility_factor'])}, k1 change "
-                          f"{_fmt(s['k1_change_pct'])} % (event {fields['event_id']})")
-        else:
-            st.message = f"no diagnosis: {fields['message']}"[:500]
-        st.values = [KeyValue(key=k, value=v) for k, v in (
-            ("event_id", fields["event_id"]),
-            ("state", state),
-            ("z_bottom_m", _fmt(s["z_bottom_m"])), ("z_top_m", _fmt(s["z_top_m"])),
-            ("k1", _fmt(s["k1"])), ("k1_change_pct", _fmt(s["k1_change_pct"])),
-            ("ductility_factor", _fmt(s["ductility_factor"])),
-            ("k2", _fmt(s["k2"]) if s["k2_identifiable"] else "not identifiable"),
-            ("fy", _fmt(s["fy"]) if s["fy_identifiable"] else "not identifiable"),
-            ("c", _fmt(s["c"])))]
-        arr.status.append(st)
-    st = DiagnosticStatus()
-    st.name = f"pier_monitor/{pier}/identifier"
-    st.hardware_id = pier
-    st.level = DiagnosticStatus.OK if fields["success"] else DiagnosticStatus.ERROR
-    st.message = fields["message"][:500] or "ok"
-    st.values = [KeyValue(key="event_id", value=fields["event_id"]),
-                 KeyValue(key="epochs", value=str(fields["epochs"])),
-                 KeyValue(key="device", value=fields["device"])]
-    arr.status.append(st)
-    return arr
+    diag = diagnostics_fields(fields, stamp_ns)
+    for st in diag["status"]:
+        st["level"] = bytes([st["level"]])  # rclpy's byte fields take one-byte bytes
+    return fill_message(DiagnosticArray(), diag)
+
+
+def damage_markers_msg(fields: dict[str, Any]) -> MarkerArray:
+    """The pier's MarkerArray (:func:`pier_monitor.report.markers.damage_markers_fields`)."""
+    return fill_message(MarkerArray(), damage_markers_fields(fields))

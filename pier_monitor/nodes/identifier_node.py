@@ -6,6 +6,9 @@ Topics (relative; run the node in the pier's namespace):
 * out ``identification_progress`` (``IdentificationProgress``) every ``progress_every``
   epochs while training;
 * out ``damage_state`` (``PierDamageState``, reliable, transient local depth 1: latched);
+* out ``damage_markers`` (``visualization_msgs/MarkerArray``, latched): the pier for RViz and
+  Foxglove, a cylinder per section coloured by state, labelled with DF and the k1 change
+  (:mod:`pier_monitor.report.markers`);
 * out ``/diagnostics`` (``DiagnosticArray``): one status per section, OK / WARN / ERROR for
   intact / suspicious / damaged (STALE when the identification failed), and the
   identifier's, republished every ``diagnostics_period_s``.
@@ -18,6 +21,11 @@ there.  At start the node queues every window not done yet, of ``results_dir`` a
 no event.  Training runs on a worker thread, never on the executor; a failure (NaN loss, out
 of memory, no GPU) is published as a damage state with ``success = false`` and the node
 keeps running.
+
+With ``ray_address`` set, each training runs as a Ray task on that cluster
+(:func:`pier_monitor.fleet.identify_event`, the task of ``pier-monitor fleet``), so that the
+graphs of many piers on one machine are not bound by its CPUs; progress is then not
+published per epoch.
 """
 
 from __future__ import annotations
@@ -28,21 +36,24 @@ from pathlib import Path
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
+from visualization_msgs.msg import MarkerArray
 from pier_monitor_msgs.msg import IdentificationProgress, MainshockWindow, PierDamageState
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from pier_monitor.core.identify.damage import IdentificationResult, failed_result
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import TrainingStopped, identify_window
+from pier_monitor.fleet import EventTask, RayBackend, identify_event
 from pier_monitor.pinn import PinnSettings, Progress, resolve_device
 from pier_monitor.report.results import damage_state_fields
 from pier_monitor.report.store import ResultsStore
 
 from ._params import declare
 from ._runtime import QueueWorker, run_node
-from .conversions import (damage_diagnostics, damage_state_msg, progress_msg,
-                          window_from_msg)
+from .conversions import (damage_diagnostics, damage_markers_msg, damage_state_msg,
+                          progress_msg, window_from_msg)
 from .qos import DAMAGE_STATE_QOS, WINDOW_QOS
 
 __all__ = ["IdentifierNode", "main", "DEVICES"]
@@ -87,6 +98,9 @@ class IdentifierNode(Node):
                 unit="epochs", lo=1, hi=100_000)
         declare(self, "write_figures", True, "Also write the report figures (a few seconds "
                 "per event)")
+        ray_address = declare(
+            self, "ray_address", "", "Train on this Ray cluster ('auto', host:port, "
+            "ray://host:10001) instead of in this process; empty: here", read_only=True)
         declare(self, "diagnostics_period_s", 1.0, "Period of /diagnostics republication",
                 unit="s", lo=0.1, hi=60.0)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -102,6 +116,9 @@ class IdentifierNode(Node):
                                                    "identification_progress", 10)
         self._state_pub = self.create_publisher(PierDamageState, "damage_state",
                                                 DAMAGE_STATE_QOS)
+        self._markers_pub = self.create_publisher(MarkerArray, "damage_markers",
+                                                  DAMAGE_STATE_QOS)
+        self._ray = RayBackend(ray_address) if ray_address else None
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._diag_timer = self.create_timer(self.get_parameter("diagnostics_period_s").value,
                                              self._publish_diagnostics)
@@ -162,14 +179,16 @@ class IdentifierNode(Node):
         self.get_logger().info(f"training on {window.event_id} ({window.duration_s:.2f} s, "
                                f"max {settings.max_epochs} epochs, device {settings.device})")
         try:
-            outcome = identify_window(window, settings, self._store,
-                                      progress=self._progress(window.event_id),
-                                      figures=bool(self._param("write_figures")))
+            if self._ray is not None:
+                result = self._identify_on_ray(window, settings)
+            else:
+                result = identify_window(window, settings, self._store,
+                                         progress=self._progress(window.event_id),
+                                         figures=bool(self._param("write_figures"))).result
         except TrainingStopped:
             self.get_logger().info(f"{window.event_id}: training stopped at shutdown; the "
                                    "window stays stored for the next start")
             return
-        result = outcome.result
         if result.success:
             self.get_logger().info(f"{window.event_id}: {result.overall_state}, DF "
                                    f"{[round(s.ductility_factor, 2) for s in result.sections]}")
@@ -177,8 +196,28 @@ class IdentifierNode(Node):
             self.get_logger().error(f"{window.event_id}: {result.message}")
         fields = damage_state_fields(result, stamp_ns=self._now_ns())
         self._state_pub.publish(damage_state_msg(fields))
+        self._markers_pub.publish(damage_markers_msg(fields))
         self._diagnostics = damage_diagnostics(fields, self._now_ns())
         self._diag_pub.publish(self._diagnostics)
+
+    def _identify_on_ray(self, window: MeasuredWindow, settings: PinnSettings
+                         ) -> IdentificationResult:
+        """One window's identification as a Ray task; raises TrainingStopped at shutdown."""
+        self._store.start_event(window)  # on disk before it leaves this machine
+        self._ray.submit(window.event_id, identify_event, EventTask(
+            window=window, settings=settings, results_root=self._store.root.resolve(),
+            figures=bool(self._param("write_figures"))))
+        finished = []
+        while not finished:
+            if self._closing:
+                raise TrainingStopped()
+            finished = self._ray.wait(timeout_s=0.5)
+        if finished[0].value is not None:
+            return finished[0].value.result
+        failed = failed_result(window, device=settings.device,
+                               message=f"Ray task failed: {finished[0].error}")
+        self._store.record_failure(failed)
+        return failed
 
     def _progress(self, event_id: str) -> Callable[[Progress], None]:
         every = self._param("progress_every")
@@ -207,6 +246,8 @@ class IdentifierNode(Node):
         """Stop the worker (ending a training at its next epoch), then the node."""
         self._closing = True  # a training stops at its next epoch; the window stays stored
         self._worker.stop(timeout_s=30.0)
+        if self._ray is not None:
+            self._ray.close()
         super().destroy_node()
 
 

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
+from .threads import set_threads
 from .trainer import IdentificationRun, PinnSettings, Progress, Reproduced, identify, resolve_device
 
 __all__ = ["IdentificationRun", "PinnSettings", "Progress", "Reproduced", "identify",
-           "resolve_device"]
+           "resolve_device", "set_threads"]

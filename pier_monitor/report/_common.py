@@ -12,10 +12,16 @@ from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.errors import ReportError
 from pier_monitor.core.fileio import atomic_path
 
-__all__ = ["check_same_pier", "engineering_scale", "ensure_dir", "format_df", "atomic_write_text"]
+__all__ = ["STATE_COLORS", "check_same_pier", "engineering_scale", "ensure_dir", "format_df",
+           "atomic_write_text"]
 
 #: Tolerance on section boundaries when two results are said to be of the same pier, m.
 Z_TOL_M = 1e-6
+
+#: Colour of each section state in figures and markers: intact green, suspicious amber,
+#: damaged red, unknown (no diagnosis) grey.
+STATE_COLORS = {"intact": "#2ca02c", "suspicious": "#ffbf00", "damaged": "#d62728",
+                "unknown": "#9e9e9e"}
 
 _PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"))
 

@@ -36,7 +36,7 @@ from pier_monitor.core.identify.damage import DAMAGED_DF, SUSPICIOUS_DF, Identif
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 
-from ._common import check_same_pier, engineering_scale, format_df
+from ._common import STATE_COLORS, check_same_pier, engineering_scale, format_df
 
 
 __all__ = [
@@ -69,7 +69,7 @@ _STYLE = {
 
 _EVENT_COLORS = ("#1f4e9c", "#222222", "#7b3294", "#8c510a", "#01665e")
 _EVENT_MARKERS = ("o", "s", "^", "D", "v")
-_BAND_COLORS = {"intact": "#2ca02c", "suspicious": "#ffbf00", "damaged": "#d62728"}
+_BAND_COLORS = STATE_COLORS
 _TERM_LABELS = {
     "data": "data misfit (L1)",
     "eom": "equation of motion (L2)",

@@ -4,7 +4,9 @@
 
 * ``damage_state.mcap`` — one ``pier_monitor_msgs/msg/PierDamageState`` on
   ``/<pier_id>/damage_state`` (``ros2`` profile, CDR, offered latched), what the identifier
-  node publishes, readable by the standard mcap tools and ``mcap-ros2-support``;
+  node publishes, with the pier's ``visualization_msgs/MarkerArray`` on
+  ``/<pier_id>/damage_markers`` and its ``/diagnostics``; readable by the standard mcap
+  tools, ``mcap-ros2-support`` and Foxglove (``config/foxglove_layout.json``);
 * ``profile.png``, ``hysteresis.png``, ``responses.png``, ``training.png`` (see
   :mod:`~pier_monitor.report.figures`), unless figures are turned off;
 * ``result.json``, last, so that its presence marks a complete report —
@@ -18,6 +20,7 @@ It returns the saved result with the paths, so nobody reads ``result.json`` back
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -25,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from pier_monitor import __version__
-from pier_monitor.bags.types import get_typestore
+from pier_monitor.bags.types import get_typestore, message_from_fields
 from pier_monitor.bags.writer import write_mcap_messages
 from pier_monitor.core.errors import BagError, InputDataError, ReportError
 from pier_monitor.core.fileio import atomic_path
@@ -35,8 +38,10 @@ from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 
 from ._common import check_same_pier, ensure_dir
+from .diagnostics import DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS_TOPIC, diagnostics_fields
 from .figures import (RunLike, check_window_matches, plot_hysteresis, plot_profile,
                       plot_responses, plot_training)
+from .markers import MARKER_ARRAY_TYPE, damage_markers_fields, damage_markers_topic
 
 __all__ = [
     "DAMAGE_STATE_TYPE",
@@ -49,6 +54,7 @@ __all__ = [
     "load_result",
     "prepare_result",
     "write_damage_state_mcap",
+    "write_damage_states_mcap",
     "write_results",
 ]
 
@@ -185,9 +191,21 @@ def damage_state_message(result: IdentificationResult, *, stamp_ns: int | None =
 
 def write_damage_state_mcap(result: IdentificationResult, path: str | Path, *,
                             stamp_ns: int | None = None) -> Path:
-    """Write the result's damage state as a one-message mcap file (replacing ``path``).
+    """Write the result's damage state, markers and diagnostics as an mcap file.
 
-    The message is on :func:`damage_state_topic`, logged at its ``header.stamp``.
+    See :func:`write_damage_states_mcap` (one result).
+    """
+    return write_damage_states_mcap([result], path, stamp_ns=stamp_ns)
+
+
+def write_damage_states_mcap(results: Sequence[IdentificationResult], path: str | Path, *,
+                             stamp_ns: int | None = None) -> Path:
+    """Write the damage states of one or more piers as an mcap file (replacing ``path``).
+
+    Per result: its ``PierDamageState`` on :func:`damage_state_topic` and its
+    ``MarkerArray`` on :func:`~pier_monitor.report.markers.damage_markers_topic` (both
+    offered latched), and its ``DiagnosticArray`` on ``/diagnostics``, all logged at the
+    message's ``header.stamp``.
 
     Raises
     ------
@@ -195,13 +213,27 @@ def write_damage_state_mcap(result: IdentificationResult, path: str | Path, *,
         Naming the path, if it cannot be written.
     """
     path = Path(path)
-    msg = damage_state_message(result, stamp_ns=stamp_ns)
-    cdr = bytes(get_typestore().serialize_cdr(msg, DAMAGE_STATE_TYPE))
-    log_ns = stamp_to_ns(msg.header.stamp.sec, msg.header.stamp.nanosec)
+    typestore = get_typestore()
+    connections: list[tuple[str, str, bool]] = []
+    records = []
+    for result in results:
+        msg = damage_state_message(result, stamp_ns=stamp_ns)
+        log_ns = max(stamp_to_ns(msg.header.stamp.sec, msg.header.stamp.nanosec), 0)
+        fields = damage_state_fields(result, stamp_ns=stamp_ns)
+        for topic, typename, latched, message in (
+                (damage_state_topic(result.pier_id), DAMAGE_STATE_TYPE, True, msg),
+                (damage_markers_topic(result.pier_id), MARKER_ARRAY_TYPE, True,
+                 message_from_fields(MARKER_ARRAY_TYPE, damage_markers_fields(fields))),
+                (DIAGNOSTICS_TOPIC, DIAGNOSTIC_ARRAY_TYPE, False,
+                 message_from_fields(DIAGNOSTIC_ARRAY_TYPE, diagnostics_fields(fields, log_ns)))):
+            if (topic, typename, latched) not in connections:
+                connections.append((topic, typename, latched))
+            cdr = bytes(typestore.serialize_cdr(message, typename))
+            records.append((log_ns, connections.index((topic, typename, latched)), cdr))
+    records.sort(key=lambda r: r[0])
     try:
         with atomic_path(path) as tmp:
-            write_mcap_messages(tmp, [(damage_state_topic(result.pier_id), DAMAGE_STATE_TYPE,
-                                       True)], [(max(log_ns, 0), 0, cdr)])
+            write_mcap_messages(tmp, connections, records)
     except (BagError, OSError) as err:
         raise ReportError(f"{path}: cannot write the damage-state mcap: {err}") from err
     return path

@@ -137,6 +137,24 @@ class ResultsStore:
         d = self.event_dir(event_id)
         return (d / RESULT_JSON).is_file() or (d / FAILED_JSON).is_file()
 
+    def outcome(self, event_id: str) -> IdentificationResult | None:
+        """The event's result or failure record; None while it is pending.
+
+        Raises
+        ------
+        ReportError
+            Naming the file, if it exists but cannot be read.
+        """
+        d = self.event_dir(event_id)
+        for name in (RESULT_JSON, FAILED_JSON):
+            path = d / name
+            if path.is_file():
+                try:
+                    return IdentificationResult.load_json(path)
+                except (OSError, ValueError, KeyError, TypeError) as err:
+                    raise ReportError(f"{path}: cannot read: {err}") from err
+        return None
+
     def results(self, pier_id: str | None = None) -> list[IdentificationResult]:
         """Every readable ``result.json`` (of ``pier_id`` when given), oldest window first.
 

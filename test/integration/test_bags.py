@@ -192,12 +192,13 @@ def test_missing_bag_is_a_bag_error(tmp_path):
         read_bag(tmp_path / "empty_dir")
 
 
-@pytest.mark.parametrize("fmt", ["mcap", "rosbag2"])
-def test_truncated_bag_is_a_bag_error_naming_the_file(written, tmp_path, fmt):
+def _damaged_copy(written, tmp_path, fmt: str, keep: float = 0.5,
+                  flip_at: float | None = None) -> Path:
+    """A copy of the written bag whose mcap keeps ``keep`` of its bytes (a logger that lost
+    power), or has bytes overwritten at ``flip_at`` of its length (a bad disk sector)."""
     src = written[fmt].bag.path
     if fmt == "mcap":
-        bag = tmp_path / "cut.mcap"
-        storage = bag
+        bag = storage = tmp_path / "cut.mcap"
         shutil.copy(src, bag)
     else:
         bag = tmp_path / "cut_bag"
@@ -205,8 +206,73 @@ def test_truncated_bag_is_a_bag_error_naming_the_file(written, tmp_path, fmt):
         (storage,) = bag.glob("*.mcap")
     size = storage.stat().st_size
     with storage.open("r+b") as fh:
-        fh.truncate(size // 2)
-    with pytest.raises(BagError, match=r"cut(\.mcap|_bag).*truncated or corrupt"):
+        if flip_at is None:
+            fh.truncate(int(size * keep))
+        else:
+            fh.seek(int(size * flip_at))
+            fh.write(b"\xff" * 4096)
+    return bag
+
+
+@pytest.fixture(scope="module")
+def full_windows(written):
+    """The windows of the complete bag (both formats hold the same recording)."""
+    from pier_monitor.core.ingest import ingest_recording
+
+    return ingest_recording(read_bag(written["mcap"].bag.path))[0]
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "rosbag2"])
+def test_truncated_bag_is_read_up_to_the_damage_and_run1_is_unchanged(written, full_windows,
+                                                                       tmp_path, fmt):
+    from pier_monitor.core.ingest import ingest_recording
+
+    bag = _damaged_copy(written, tmp_path, fmt)
+    recording = read_bag(bag)
+    (finding,) = recording.findings
+    assert finding.code == "bag_truncated" and finding.where == str(bag)
+    end_s = (finding.end_ns - written["expected"].start_ns) / 1e9
+    assert 50.0 < end_s < 90.0  # cut between run 1 (ends ~47 s) and run 2 (starts ~97 s)
+    assert "messages read up to the damage; its data end at 2024-03-12T01:0" in finding.message
+    n_read = int(finding.message.split(": ")[-1].split(" messages")[0])
+    assert 10_000 < n_read < written[fmt].summary()["messages"]
+    windows, report = ingest_recording(recording)
+    assert [o.status for o in report.outcomes] == ["ingested"]
+    assert windows[0] == full_windows[0]  # every field, the findings included
+
+
+def test_bag_cut_inside_run2_reports_run2_as_cut(written, full_windows, tmp_path):
+    from pier_monitor.core.ingest import ingest_recording
+
+    bag = _damaged_copy(written, tmp_path, "mcap", keep=0.72)
+    windows, report = ingest_recording(read_bag(bag))
+    assert [o.status for o in report.outcomes] == ["ingested", "cut"]
+    assert windows == [full_windows[0]]
+    cut = report.outcomes[1]
+    assert cut.window is None and "is cut: the data end at 2024-03-12T01:01:" in cut.failure
+    assert "bag_truncated" in [f.code for f in cut.findings]
+
+
+def test_bag_with_a_corrupt_middle_is_read_up_to_the_corruption(written, tmp_path):
+    bag = _damaged_copy(written, tmp_path, "mcap", flip_at=0.6)
+    recording = read_bag(bag)
+    (finding,) = recording.findings
+    assert finding.code == "bag_truncated" and "damaged (cut.mcap: " in finding.message
+    assert recording.end_ns <= finding.end_ns
+
+
+def test_rosbag2_directory_without_metadata_is_recovered(written, tmp_path):
+    bag = _damaged_copy(written, tmp_path, "rosbag2")
+    (bag / "metadata.yaml").unlink()
+    recording = read_bag(bag)
+    assert recording.findings[0].code == "bag_truncated"
+    assert read_bag_config(bag) == written["expected"].config
+
+
+def test_bag_damaged_before_any_message_is_a_bag_error(written, tmp_path):
+    bag = _damaged_copy(written, tmp_path, "mcap", keep=0.0005)
+    with pytest.raises(BagError, match=r"cut\.mcap: cannot read bag, it may be truncated or "
+                                       r"corrupt: .*no complete message before the damage"):
         read_bag(bag)
 
 
@@ -244,6 +310,25 @@ def test_bag_without_configuration_is_a_bag_error(written, tmp_path):
     _write_raw_rosbag2(bag, [(sensor_topic(config.pier_id, spec), SAMPLE_BLOCK,
                               [(1_000_000_000, _block(spec))])])
     with pytest.raises(BagError, match="no_config: no pier configuration in the bag"):
+        read_bag(bag)
+
+
+@pytest.mark.parametrize("pier_id, shown", [("../../x", r"'\.\./\.\./x' holds '\./'"),
+                                            ("/abs/y", r"'/abs/y' holds '/'"),
+                                            ("", r"expected a non-empty string")])
+def test_bag_whose_configuration_has_an_unsafe_pier_id_is_refused(written, tmp_path, pier_id,
+                                                                  shown):
+    import yaml
+
+    from pier_monitor.core.errors import ConfigError
+
+    types = get_typestore().types
+    raw = written["expected"].config.as_dict()
+    raw["pier_id"] = pier_id
+    bag = tmp_path / "evil"
+    _write_raw_rosbag2(bag, [("/evil/pier_configuration", "std_msgs/msg/String",
+                              [(1, types["std_msgs/msg/String"](data=yaml.safe_dump(raw)))])])
+    with pytest.raises(ConfigError, match=rf"evil:/evil/pier_configuration: pier_id: {shown}"):
         read_bag(bag)
 
 

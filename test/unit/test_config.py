@@ -68,6 +68,24 @@ def test_config_arrays_are_read_only():
     (lambda d: d["sensors"][2].__setitem__("signs", [2]), r"sensors\[2\]\.signs: expected 1 values of \+1 or -1"),
     (lambda d: d["sensors"][2].__setitem__("axes", ["x", "x"]), r"sensors\[2\]\.axes: expected a list of distinct axes"),
     (lambda d: d.__setitem__("sample_rate_hz", 0), r"sample_rate_hz: expected a positive number, got 0"),
+    (lambda d: d.__setitem__("pier_id", "../../x"), r"table1.yaml: pier_id: '\.\./\.\./x' holds '\./'"),
+    (lambda d: d.__setitem__("pier_id", "/abs/y"), r"table1.yaml: pier_id: '/abs/y' holds '/'"),
+    (lambda d: d.__setitem__("pier_id", "pier 7"), r"pier_id: 'pier 7' holds ' '; only A-Z"),
+    (lambda d: d.__setitem__("pier_id", ""), r"pier_id: expected a non-empty string, got ''"),
+    (lambda d: d.__setitem__("pier_id", "p" * 65), r"pier_id: 65 characters .* at most 64"),
+    (lambda d: d.__setitem__("pier_id", 7), r"pier_id: expected a non-empty string, got 7"),
+    (lambda d: d["sensors"][2].__setitem__("full_scale", 1.0),
+     r"sensors\[2\]\.full_scale: a displacement sensor states its range"),
+    (lambda d: d["sensors"][1].__setitem__("range", [0.0, 1.0]),
+     r"sensors\[1\]\.range: only displacement sensors have a range"),
+    (lambda d: d["sensors"][2].__setitem__("range", [1.0, 0.0]),
+     r"sensors\[2\]\.range: expected \[min, max\] with min < max in m, got \[1.0, 0.0\]"),
+    (lambda d: d["sensors"][1].__setitem__("full_scale", -1.0),
+     r"sensors\[1\]\.full_scale: expected a positive number, got -1.0"),
+    (lambda d: d["sensors"][1].__setitem__("offsets", [50.0]),
+     r"sensors\[1\]\.full_scale: 40 m/s\^2 does not cover the offset 50 m/s\^2"),
+    (lambda d: d["sensors"][2].__setitem__("offsets", [2.0]),
+     r"sensors\[2\]\.range: \[-1.0, 1.0\] m does not hold the offset 2 m"),
 ])
 def test_bad_configuration_names_the_field(tmp_path, mutate, match):
     data = table1_dict()
@@ -88,6 +106,25 @@ def test_unreadable_and_malformed_files_give_config_errors(tmp_path):
     bad.write_text("- just\n- a list\n")
     with pytest.raises(ConfigError, match=r"bad.yaml: \(top level\): expected a mapping"):
         load_config(bad)
+
+
+def test_configuration_that_is_not_utf8_is_a_config_error(tmp_path):
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes("pier_id: pier_café\n".encode("latin-1"))
+    with pytest.raises(ConfigError, match=r"latin1.yaml: not UTF-8 text \(byte 0xe9 at offset "
+                                          r"17\); save the configuration as UTF-8"):
+        load_config(path)
+
+
+def test_sensor_bounds_round_trip_and_give_the_recorded_interval():
+    cfg = load_config(CONFIG_DIR / "table1.yaml")
+    assert cfg.sensor("acc_l1").recorded_bounds() == (-40.0, 40.0)
+    assert cfg.sensor("disp_l1").recorded_bounds() == (-1.0, 1.0)
+    raw = table1_dict()
+    del raw["sensors"][1]["full_scale"]
+    bare = config_from_yaml(yaml.safe_dump(raw))
+    assert bare.sensor("acc_l1").recorded_bounds() is None
+    assert "full_scale" not in bare.sensor("acc_l1").as_dict()
 
 
 def test_spring_parameters_validate_shapes_and_constraints():

@@ -90,3 +90,40 @@ def test_el_centro_record_ships_with_the_package():
     gm = el_centro_1940()
     assert gm.dt == 0.02 and gm.acc.size == 3995
     assert gm.pga == pytest.approx(0.3129 * G_STANDARD, rel=1e-3)
+
+
+def test_file_of_three_columns_needs_the_acceleration_column(tmp_path):
+    path = tmp_path / "three.txt"
+    path.write_text("0.00 0.5 9.0\n0.01 1.0 9.0\n0.02 -0.5 9.0\n0.03 0.2 9.0\n")
+    with pytest.raises(GroundMotionError, match=r"three.txt: 3 columns; choose the acceleration "
+                                                r"column \(column=, pier-monitor simulate "
+                                                r"--column N, counted from 1\)"):
+        load_accelerogram(path, units="mps2")
+    gm = load_accelerogram(path, units="mps2", column=2)
+    np.testing.assert_allclose(gm.acc, [0.5, 1.0, -0.5, 0.2])
+    assert gm.dt == pytest.approx(0.01)
+    gm = load_accelerogram(path, units="mps2", column=3, dt=0.01)
+    np.testing.assert_allclose(gm.acc, [9.0] * 4)
+    with pytest.raises(GroundMotionError, match="three.txt: column 4 chosen but the rows have 3"):
+        load_accelerogram(path, units="mps2", column=4)
+    with pytest.raises(GroundMotionError, match="column must be a column number from 1, got 0"):
+        load_accelerogram(path, units="mps2", column=0)
+
+
+def test_column_one_without_dt_has_no_time_column(tmp_path):
+    path = tmp_path / "cols.txt"
+    path.write_text("0.5 7\n1.0 7\n-0.5 7\n")
+    with pytest.raises(GroundMotionError, match="no time column; give the sampling period dt"):
+        load_accelerogram(path, units="mps2", column=1)
+    np.testing.assert_allclose(load_accelerogram(path, units="mps2", column=1, dt=0.02).acc,
+                               [0.5, 1.0, -0.5])
+
+
+def test_scaling_beyond_a_plausible_peak_is_refused():
+    gm = synthetic_near_fault(pga_mps2=8.0)
+    with pytest.raises(GroundMotionError, match=r"PGA 1e\+30 m/s\^2 is implausible for a ground "
+                                                r"motion \(> 50 m/s\^2 = 5 g\)"):
+        gm.scaled_to_pga(1e30)
+    with pytest.raises(GroundMotionError, match=r"scaled by 10: peak 80 m/s\^2 is implausible"):
+        gm.scaled(10.0)
+    assert gm.scaled(6.0).pga == pytest.approx(48.0)

@@ -9,6 +9,7 @@ imports, so must everything a layer loads.
     bags     the only rosbags/mcap importer report   core, bags, Matplotlib (no pyplot)
     nodes    the only rclpy / *_msgs importer; uses the layers below, never torch itself
     cli, pipeline, events, bench, progress: orchestration over core, pinn, bags, report
+    fleet    many bags on a process pool or a Ray cluster: over the layers above, never rclpy
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[2] / "pier_monitor"
 ROS = ("rclpy", "rcl_interfaces", "builtin_interfaces", "std_msgs", "sensor_msgs",
-       "diagnostic_msgs", "pier_monitor_msgs")
+       "diagnostic_msgs", "visualization_msgs", "pier_monitor_msgs")
 BAGS = ("rosbags", "mcap", "mcap_ros2")
 TOP = ("pier_monitor.cli", "pier_monitor.pipeline", "pier_monitor.events", "pier_monitor.bench",
        "pier_monitor.progress")
@@ -35,6 +36,7 @@ ALLOWED_THIRD_PARTY = {
     "report": {"numpy", "matplotlib"},
     "nodes": {"numpy", "yaml", *ROS},
     "top": {"numpy", "tqdm"},
+    "fleet": {"numpy", "tqdm", "ray"},
     "root": set(),
 }
 #: Layers of the package a layer may import.
@@ -43,8 +45,9 @@ ALLOWED_LAYERS = {
     "pinn": {"core", "pinn", "root"},
     "bags": {"core", "bags", "root"},
     "report": {"core", "bags", "report", "root"},
-    "nodes": {"core", "bags", "report", "pinn", "top", "nodes", "root"},
-    "top": {"core", "bags", "report", "pinn", "top", "root"},
+    "nodes": {"core", "bags", "report", "pinn", "top", "fleet", "nodes", "root"},
+    "top": {"core", "bags", "report", "pinn", "top", "fleet", "root"},
+    "fleet": {"core", "bags", "report", "pinn", "top", "fleet", "root"},
     "root": {"root"},
 }
 #: What a layer must never load, following the package's own imports.
@@ -54,6 +57,7 @@ NEVER_LOADED = {
     "bags": {"torch", "matplotlib", *ROS},
     "report": {"torch", *ROS},
     "top": set(ROS),
+    "fleet": set(ROS),
 }
 
 
@@ -82,7 +86,7 @@ def layer(module: str) -> str:
     parts = module.split(".")
     if len(parts) == 1:
         return "root"
-    if parts[1] in ("core", "pinn", "bags", "report", "nodes"):
+    if parts[1] in ("core", "pinn", "bags", "report", "nodes", "fleet"):
         return parts[1]
     return "top" if module in TOP else "root"
 
@@ -167,9 +171,11 @@ def loaded_by(module: str) -> tuple[set[str], set[str]]:
 
 
 STDLIB = {
-    "__future__", "argparse", "array", "ast", "collections", "contextlib", "dataclasses",
+    "__future__", "argparse", "array", "ast", "collections", "concurrent", "contextlib",
+    "dataclasses",
     "datetime", "enum", "functools", "glob", "hashlib", "importlib", "io", "itertools", "json",
-    "logging", "math", "numbers", "os", "pathlib", "platform", "queue", "re", "selectors",
+    "logging", "math", "multiprocessing", "numbers", "os", "pathlib", "platform", "queue", "re",
+    "selectors",
     "shutil", "signal", "struct", "subprocess", "sys", "tempfile", "threading", "time",
     "typing", "warnings", "zipfile",
 }

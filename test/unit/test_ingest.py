@@ -9,7 +9,7 @@ import pytest
 from scipy import signal
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.ingest import IngestError, StreamIngest, ingest_recording
+from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.ingest.recording import Recording, SensorRecord
 from pier_monitor.core.resources import find_config_file
 from pier_monitor.core.model.config import load_config
@@ -86,7 +86,7 @@ def test_principal_direction_is_estimated_within_one_degree(synthetic):
         est = w.report["principal_direction_deg"]
         diff = (est - synthetic.truth.principal_direction_deg + 90.0) % 180.0 - 90.0
         assert abs(diff) < 1.0
-    assert "principal_direction" in report.codes("event1")
+    assert "principal_direction" in report.codes(windows[0].event_id)
 
 
 def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
@@ -111,6 +111,35 @@ def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
         assert a.geometry == b.geometry and a.design == b.design
         for key in ("ag", "a", "v", "x"):
             np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+        assert a == b  # every field: noise model, coverage, report with its findings
+    assert [o.status for o in stream.report.outcomes] == ["ingested", "ingested"]
+
+
+def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested):
+    rec = synthetic.recording
+    r = rec.sensors["l2_wire_n"]
+    keep = (r.time_ns < synthetic.truth.runs[1].window_start_ns + 5 * 10**9) | (
+        r.time_ns >= synthetic.truth.runs[1].window_start_ns + 7 * 10**9)  # 2 s gap in run 2
+    bad = with_sensor(rec, "l2_wire_n", time_ns=r.time_ns[keep], data=r.data[keep],
+                      sample_index=r.sample_index[keep])
+    stream = StreamIngest(rec.config)
+    for t_ns, config in rec.config_updates:
+        stream.update_config(config, t_ns)
+    got = []
+    for b0 in range(0, next(iter(bad.sensors.values())).n_samples + 400, 400):
+        for sid, s in bad.sensors.items():
+            sel = slice(np.searchsorted(s.time_ns, rec.start_ns + b0 * 5_000_000),
+                        np.searchsorted(s.time_ns, rec.start_ns + (b0 + 400) * 5_000_000))
+            got += stream.push(sid, s.time_ns[sel], s.data[sel], s.sample_index[sel])
+    got += stream.flush()
+    outcomes = stream.report.outcomes
+    assert [o.status for o in outcomes] == ["ingested", "failed"]
+    assert got == [outcomes[0].window]
+    np.testing.assert_array_equal(got[0].x, ingested[0][0].x)
+    assert outcomes[1].failure.startswith("level 2: the usable displacement channels "
+                                          "(l2_wire_w.x) all point one way")
+    assert "l2_wire_n: gap_excluded (400 missing samples (2.00 s)" in outcomes[1].failure
+    assert "gap_excluded" in [f.code for f in stream.report.findings]
 
 
 def test_stream_accounts_for_gaps_duplicates_and_samples_without_index(synthetic):
@@ -186,7 +215,7 @@ def test_long_gap_excludes_the_sensor_and_says_when(synthetic):
     windows, report = ingest_recording(with_sensor(rec, sid, time_ns=r.time_ns[keep],
                                                    data=r.data[keep],
                                                    sample_index=r.sample_index[keep]))
-    msgs = [m for c, w, m in report.events if c == "gap_excluded" and w == sid]
+    msgs = [f.message for f in report.findings if f.code == "gap_excluded" and f.where == sid]
     assert msgs and "400 missing samples (2.00 s)" in msgs[0]
     assert windows[0].report["channels"]["acceleration.2"] == 6  # 8 channels less its 2
     assert windows[1].report["channels"]["acceleration.2"] == 8  # run 2 is after the gap
@@ -262,12 +291,15 @@ def test_level_without_displacement_sensor_is_reported_unmeasured(synthetic):
         assert np.isfinite(w.x).all()  # level 2: integrated from its acceleration
 
 
-def test_nothing_measured_above_the_foundation_is_an_error_naming_it(synthetic):
+def test_nothing_measured_above_the_foundation_fails_the_events_naming_it(synthetic):
     rec = synthetic.recording
     sensors = {k: v for k, v in rec.sensors.items() if rec.config.sensor(k).level == 0}
-    with pytest.raises(IngestError, match="no usable acceleration or displacement sensor at any "
-                                          "level above the foundation"):
-        ingest_recording(Recording(rec.config, sensors))
+    windows, report = ingest_recording(Recording(rec.config, sensors))
+    assert windows == []
+    assert [o.status for o in report.outcomes] == ["failed", "failed"]
+    for o in report.outcomes:
+        assert "no usable acceleration or displacement sensor at any level above the " \
+               "foundation" in o.failure
 
 
 def test_rate_contradicting_the_configuration_is_reported(synthetic):

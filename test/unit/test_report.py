@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from ros_helpers import check_markers
 
 from pier_monitor import __version__
 from pier_monitor.core.identify.damage import IdentificationResult, SectionResult, classify_ductility
@@ -105,10 +106,10 @@ def test_damage_state_mcap_decodes_with_mcap_ros2(identified, written) -> None:
     result = written.result
     with written.paths.damage_state_mcap.open("rb") as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-        msgs = list(reader.iter_decoded_messages())
-    assert len(msgs) == 1
-    schema, channel, message, decoded = msgs[0]
-    assert channel.topic == damage_state_topic("table1") == "/table1/damage_state"
+        msgs = {channel.topic: (schema, channel, message, decoded)
+                for schema, channel, message, decoded in reader.iter_decoded_messages()}
+    assert sorted(msgs) == ["/diagnostics", "/table1/damage_markers", "/table1/damage_state"]
+    schema, channel, message, decoded = msgs[damage_state_topic("table1")]
     assert schema.name == "pier_monitor_msgs/msg/PierDamageState"
     assert message.log_time == START_NS
     assert (decoded.header.stamp.sec, decoded.header.stamp.nanosec) == (1_700_000_000, 250_000_000)
@@ -126,6 +127,13 @@ def test_damage_state_mcap_decodes_with_mcap_ros2(identified, written) -> None:
         assert got.state == int(want.damage_state)
         assert got.k2_identifiable == want.k2_identifiable == want.yielded
     assert [s.state for s in decoded.sections][:2] == [2, 2]
+    # the same state as markers (a cylinder and a label per section) and diagnostics
+    schema, channel, message, markers = msgs["/table1/damage_markers"]
+    assert schema.name == "visualization_msgs/msg/MarkerArray" and message.log_time == START_NS
+    check_markers(markers, result)
+    *_, diagnostics = msgs["/diagnostics"]
+    levels = [st.level for st in diagnostics.status if "/section_" in st.name]
+    assert levels == [int(s.damage_state) for s in result.sections]  # OK/WARN/ERROR = 0/1/2
 
 
 def test_damage_state_fields_are_the_message_fields(msg_typestore) -> None:
@@ -224,3 +232,25 @@ def test_cli_compare_names_a_missing_result(tmp_path: Path, capsys) -> None:
 
     assert main(["compare", str(tmp_path / "nope"), str(tmp_path / "nope2")]) == 2
     assert f"{tmp_path / 'nope'}: no such file" in capsys.readouterr().err
+
+
+def test_foxglove_layout_shows_the_topics_of_a_results_mcap() -> None:
+    """config/foxglove_layout.json: the markers in 3D, the section states, the diagnostics."""
+    from pier_monitor.report.diagnostics import DIAGNOSTICS_TOPIC
+    from pier_monitor.report.markers import damage_markers_topic
+
+    layout = json.loads((Path(__file__).resolve().parents[2] / "config" /
+                         "foxglove_layout.json").read_text())
+    panels = layout["configById"]
+    three_d = next(v for k, v in panels.items() if k.startswith("3D!"))
+    assert damage_markers_topic("edefense_pier") in three_d["topics"]
+    assert three_d["followTf"] == "edefense_pier"  # the markers' frame: the pier id
+    table = next(v for k, v in panels.items() if k.startswith("Table!"))
+    assert table["topicPath"] == damage_state_topic("edefense_pier") + ".sections"
+    diag = next(v for k, v in panels.items() if k.startswith("DiagnosticSummary!"))
+    assert diag["topicToRender"] == DIAGNOSTICS_TOPIC
+
+    def leaves(node):
+        return [node] if isinstance(node, str) else leaves(node["first"]) + leaves(node["second"])
+
+    assert sorted(leaves(layout["layout"])) == sorted(panels)

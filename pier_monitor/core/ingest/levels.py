@@ -2,14 +2,69 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.ingest.clean import CleanSensor
-from pier_monitor.core.ingest.settings import IngestError
+from pier_monitor.core.ingest.settings import LevelUnusableError
 from pier_monitor.core.model.config import PierConfig
 
-__all__ = ["level_motion", "estimate_principal_direction", "level_noise_si"]
+__all__ = ["HorizontalChannel", "horizontal_channels", "availability_patterns", "level_motion",
+           "level_motion_partial", "estimate_principal_direction", "level_noise_si"]
+
+
+@dataclass(frozen=True)
+class HorizontalChannel:
+    """One horizontal (x or y) channel of a cleaned sensor.
+
+    ``column`` is its column in ``sensor.values``; ``direction`` (2,) the unit vector (X, Y)
+    it measures along; ``name`` ``<sensor id>.<axis>``.
+    """
+
+    sensor: CleanSensor
+    column: int
+    direction: np.ndarray
+    name: str
+
+
+def horizontal_channels(cleaned: list[CleanSensor], kind: str, level: int
+                        ) -> list[HorizontalChannel]:
+    """The x/y channels of every cleaned sensor of ``kind`` at ``level``, in map order."""
+    out = []
+    for cs in cleaned:
+        if cs.spec.kind != kind or cs.spec.level != level:
+            continue
+        for j, axis in enumerate(cs.spec.axes):
+            if axis != "z":
+                out.append(HorizontalChannel(cs, j, cs.spec.axis_direction(axis)[:2],
+                                             f"{cs.spec.sensor_id}.{axis}"))
+    return out
+
+
+def availability_patterns(avail: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Group samples by which channels are available: ``[(rows, columns), ...]``.
+
+    ``avail`` is (T, C) bool; each entry gives the sample indices sharing one pattern and
+    the channel indices available in it (patterns with no channel are left out).
+    """
+    if avail.shape[1] == 0:
+        return []
+    packed = np.packbits(avail, axis=1, bitorder="little")
+    if packed.shape[1] <= 8:  # up to 64 channels: one integer key per sample
+        keys = np.zeros((avail.shape[0], 8), dtype=np.uint8)
+        keys[:, :packed.shape[1]] = packed
+        keys = keys.view(np.uint64).ravel()
+    else:
+        keys = np.ascontiguousarray(packed).view(np.dtype((np.void, packed.shape[1]))).ravel()
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    out = []
+    for k, row in enumerate(first):
+        cols = np.flatnonzero(avail[row])
+        if cols.size:
+            out.append((np.flatnonzero(inverse == k), cols))
+    return out
 
 
 def level_motion(cleaned: list[CleanSensor], kind: str, level: int, sl: slice,
@@ -18,38 +73,56 @@ def level_motion(cleaned: list[CleanSensor], kind: str, level: int, sl: slice,
 
     Returns shape (T, 2) in SI, or None when the level has no usable channel of ``kind``
     and ``required`` is false.  ``counts[f"{kind}.{level}"]`` receives the number of channels
-    used.  Each usable x/y channel contributes one equation
-    ``e_j · u(t) = m_j(t)``; a level whose channels all point one way cannot give both
-    components and raises (or, with a single direction, is only reported).
+    used.  Only channels usable over the whole of ``sl`` take part.  Each contributes one
+    equation ``e_j · u(t) = m_j(t)``; a level whose channels all point one way cannot give
+    both components.
+
+    Raises
+    ------
+    LevelUnusableError
+        When ``required`` and the level has no usable channel, or only one direction.
     """
-    rows, cols = [], []
-    for cs in cleaned:
-        if cs.spec.kind != kind or cs.spec.level != level:
-            continue
-        for j, axis in enumerate(cs.spec.axes):
-            if axis == "z":
-                continue
-            if not cs.usable[sl, j].all():
-                continue
-            rows.append(cs.spec.axis_direction(axis)[:2])
-            cols.append(cs.values[sl, j])
+    chans = [c for c in horizontal_channels(cleaned, kind, level)
+             if c.sensor.usable[sl, c.column].all()]
     where = f"level {level}"
-    if not rows:
+    if not chans:
         if required:
-            raise IngestError(f"{where}: no usable {kind} sensor for this window; every one is "
-                              "missing, excluded or not in the sensor map")
+            raise LevelUnusableError(f"{where}: no usable {kind} sensor", level, kind)
         return None
-    e = np.array(rows)
+    e = np.array([c.direction for c in chans])
     if np.linalg.matrix_rank(e, tol=1e-6) < 2:
         if required:
-            raise IngestError(f"{where}: the usable {kind} channels all point one way; two "
-                              "horizontal directions are needed")
+            raise LevelUnusableError(
+                f"{where}: the usable {kind} channels ({', '.join(c.name for c in chans)}) all "
+                "point one way; two horizontal directions are needed", level, kind)
         return None
-    m = np.stack(cols, axis=1)  # (T, C)
-    u, *_ = np.linalg.lstsq(e, m.T, rcond=None)
+    m = np.stack([c.sensor.values[sl, c.column] for c in chans], axis=1)  # (T, C)
     if counts is not None:
-        counts[f"{kind}.{level}"] = len(rows)
-    return u.T
+        counts[f"{kind}.{level}"] = len(chans)
+    return m @ np.linalg.pinv(e).T
+
+
+def level_motion_partial(cleaned: list[CleanSensor], kind: str, level: int,
+                         sl: slice) -> np.ndarray | None:
+    """Like :func:`level_motion`, but each sample uses the channels usable at that sample.
+
+    Returns shape (T, 2) in SI with NaN rows where the usable channels do not span both
+    horizontal directions, or None when the level has no channel of ``kind`` at all.  For
+    the trigger: a sensor lost during one run must not blind it for the others.
+    """
+    chans = horizontal_channels(cleaned, kind, level)
+    if not chans:
+        return None
+    m = np.stack([c.sensor.values[sl, c.column] for c in chans], axis=1)
+    avail = np.stack([c.sensor.usable[sl, c.column] for c in chans], axis=1) & np.isfinite(m)
+    e_all = np.array([c.direction for c in chans])
+    out = np.full((m.shape[0], 2), np.nan)
+    for rows, cols in availability_patterns(avail):
+        e = e_all[cols]
+        if np.linalg.matrix_rank(e, tol=1e-6) < 2:
+            continue
+        out[rows] = m[rows][:, cols] @ np.linalg.pinv(e).T
+    return out
 
 
 def estimate_principal_direction(ag_xy: np.ndarray) -> float:

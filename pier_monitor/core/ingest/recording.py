@@ -13,12 +13,15 @@ time instead of losing it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 
 from pier_monitor.core.model.config import PierConfig
 from pier_monitor.core.errors import InputDataError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pier_monitor.core.ingest.settings import Finding
 
 __all__ = ["SensorRecord", "Recording", "sample_times_ns", "NS_PER_S", "ns_to_stamp",
            "stamp_to_ns"]
@@ -158,6 +161,9 @@ class Recording:
         Later configurations with the time (ns) from which each holds, in time order, e.g.
         deck mass added between two shaking runs.  They must keep the sensor map and the
         number of levels; :meth:`config_at` picks the one in force.
+    findings : tuple of Finding
+        What the reader found about the source, e.g. a bag that ends early (where its data
+        end); the ingest reports them with its own.
     """
 
     config: PierConfig
@@ -165,6 +171,7 @@ class Recording:
     source: str = ""
     unmapped_topics: tuple[str, ...] = field(default=())
     config_updates: tuple[tuple[int, PierConfig], ...] = field(default=())
+    findings: tuple[Finding, ...] = field(default=())
 
     def __post_init__(self) -> None:
         known = {s.sensor_id: s for s in self.config.sensors}
@@ -190,6 +197,7 @@ class Recording:
                     f"configuration update at {t} ns for pier {c.pier_id!r} changes the pier, "
                     "its levels or its sensor map; only geometry and design values may change")
         object.__setattr__(self, "config_updates", updates)
+        object.__setattr__(self, "findings", tuple(self.findings))
 
     def config_at(self, t_ns: int) -> PierConfig:
         """The configuration in force at ``t_ns``: the latest update at or before it."""

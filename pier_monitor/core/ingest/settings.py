@@ -1,18 +1,45 @@
-"""Settings, report and error type of the ingest (SI units; names carry them)."""
+"""Settings, findings, report and error types of the ingest (SI units; names carry them)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from datetime import datetime, timezone
+from typing import TYPE_CHECKING, Any
 
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.ingest.recording import NS_PER_S
 
-__all__ = ["IngestError", "IngestSettings", "IngestReport", "fmt_time"]
+if TYPE_CHECKING:  # pragma: no cover
+    from pier_monitor.core.ingest.window import MeasuredWindow
+
+__all__ = ["IngestError", "LevelUnusableError", "IngestSettings", "Finding", "EventIngest",
+           "IngestReport", "fmt_time", "fmt_span", "ACTIONS"]
+
+#: What a finding did to the data: ``repaired`` (samples restored, the sensor still used),
+#: ``excluded`` (the sensor or channel not used over the finding's span), ``noted``
+#: (nothing changed, e.g. a direction estimated) or ``failed`` (an event gave no window).
+ACTIONS = ("repaired", "excluded", "noted", "failed")
 
 
 class IngestError(InputDataError):
     """The recording cannot give a window (e.g. a level without any usable sensor)."""
+
+
+class LevelUnusableError(IngestError):
+    """A level has no usable channel of a kind (or only one direction) over a span.
+
+    Attributes
+    ----------
+    level : int
+        The level (0 = foundation).
+    kind : str
+        ``acceleration``, ``displacement`` or ``velocity``.
+    """
+
+    def __init__(self, message: str, level: int, kind: str) -> None:
+        super().__init__(message)
+        self.level = level
+        self.kind = kind
 
 
 @dataclass(frozen=True)
@@ -24,8 +51,8 @@ class IngestSettings:
     output_rate_hz : float
         Rate of the emitted windows (the identifier's data rate).
     short_gap_s : float
-        Gaps up to this long are interpolated; longer ones exclude the sensor from windows
-        that overlap them.
+        Gaps (and glitches, out-of-range stretches) up to this long are interpolated;
+        longer ones exclude the channel from windows that overlap them.
     trigger_window_s : float
         Length of the causal moving RMS of the foundation acceleration.
     trigger_floor_mps2 : float
@@ -52,6 +79,24 @@ class IngestSettings:
     gain_rel : float
         Relative 1-sigma uncertainty of the sensors' gains that the configuration does not
         state (field sensors: about 1 %); carried to the identifier in the noise model.
+    glitch_threshold : float
+        A sample is a glitch when it departs from what its neighbours predict by more than
+        this many robust standard deviations (local, per second of data, never below the
+        configured noise): the other accelerometers of its level for an accelerometer, its
+        own neighbouring samples' increments for a displacement or velocity sensor.
+    glitch_rel : float
+        An accelerometer sample must also depart from the prediction by this share of the
+        prediction: gain and alignment differences between sensors are not glitches.
+    glitch_max_s : float
+        A jump and a jump back within this time bound one glitch; a lone jump of a
+        displacement or velocity sensor is an offset jump and is removed.
+    frozen_s : float
+        A channel that repeats exactly the same value for this long is frozen there.
+    disagree_rel : float
+        A sensor whose residual against the other sensors of its level exceeds this share of
+        the signal (and several times its noise) is excluded there: accelerometers against
+        the other accelerometers, per second; displacement sensors against the level's
+        acceleration integrated twice, per event.
     """
 
     output_rate_hz: float = 100.0
@@ -67,32 +112,158 @@ class IngestSettings:
     principal_direction_deg: float | None = None
     highpass_hz: float = 0.05
     gain_rel: float = 0.01
+    glitch_threshold: float = 10.0
+    glitch_rel: float = 0.2
+    glitch_max_s: float = 1.0
+    frozen_s: float = 0.25
+    disagree_rel: float = 0.2
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One thing the ingest found in the data, and what it did about it.
+
+    Attributes
+    ----------
+    code : str
+        What was found, e.g. ``glitch``, ``gap_excluded``, ``frozen``, ``inconsistent``,
+        ``rate_mismatch``, ``event_cut`` (see the package README for the list).
+    where : str
+        Sensor id, ``<sensor id>.<axis>`` for one channel, ``level <n>``, an event id, a
+        topic or the bag.
+    message : str
+        What was found and done, naming the sensor and the time (UTC).
+    start_ns, end_ns : int
+        Span of data the finding concerns, ns since the Unix epoch (``end_ns`` inclusive).
+    action : str
+        One of :data:`ACTIONS`.
+    """
+
+    code: str
+    where: str
+    message: str
+    start_ns: int
+    end_ns: int
+    action: str = "noted"
+
+    def __post_init__(self) -> None:
+        if self.action not in ACTIONS:
+            raise InputDataError(f"finding {self.code}: action must be one of {ACTIONS}, got "
+                                 f"{self.action!r}")
+        if self.end_ns < self.start_ns:
+            raise InputDataError(f"finding {self.code} at {self.where}: end {self.end_ns} ns "
+                                 f"before start {self.start_ns} ns")
+
+    @property
+    def sensor_id(self) -> str:
+        """The sensor part of :attr:`where` (``where`` without ``.<axis>``)."""
+        return self.where.split(".", 1)[0]
+
+    def overlaps(self, start_ns: int, end_ns: int) -> bool:
+        """Whether the finding's span meets ``[start_ns, end_ns]``."""
+        return self.start_ns <= end_ns and self.end_ns >= start_ns
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready form; :meth:`from_dict` reads it back."""
+        return {"code": self.code, "where": self.where, "action": self.action,
+                "message": self.message, "start_ns": self.start_ns, "end_ns": self.end_ns}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Finding":
+        """Inverse of :meth:`as_dict`."""
+        return cls(code=d["code"], where=d["where"], message=d["message"],
+                   start_ns=int(d["start_ns"]), end_ns=int(d["end_ns"]),
+                   action=d.get("action", "noted"))
+
+    def __str__(self) -> str:
+        return f"{self.where}: {self.code}: {self.message}"
+
+
+@dataclass(frozen=True, eq=False)
+class EventIngest:
+    """What the ingest made of one detected event.
+
+    Attributes
+    ----------
+    event_id : str
+    start_ns, end_ns : int
+        The event's window span at the sensor rate, ns since the Unix epoch.
+    window : MeasuredWindow or None
+        The window, or None when the event failed.
+    failure : str or None
+        Why there is no window, naming the level, sensors, times and causes.
+    status : str
+        ``ingested``, ``cut`` (the data begin or end during the event) or ``failed``.
+    findings : tuple of Finding
+        The findings about the data of this event (its window and context).
+    """
+
+    event_id: str
+    start_ns: int
+    end_ns: int
+    window: MeasuredWindow | None
+    failure: str | None = None
+    status: str = "ingested"
+    findings: tuple[Finding, ...] = ()
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready form (without the window's arrays)."""
+        return {"event_id": self.event_id, "status": self.status, "start_ns": self.start_ns,
+                "end_ns": self.end_ns, "failure": self.failure,
+                "findings": [f.as_dict() for f in self.findings]}
 
 
 @dataclass
 class IngestReport:
     """What the ingest did: every exclusion, repair and check, by sensor and time.
 
-    ``events`` holds ``(code, sensor_or_level, message)`` tuples; ``checks`` numbers such as
-    the velocity-meter comparison.
+    ``findings`` holds :class:`Finding` objects in the order found; ``outcomes`` one
+    :class:`EventIngest` per detected event; ``checks`` numbers such as the velocity-meter
+    comparison.
     """
 
-    events: list[tuple[str, str, str]] = field(default_factory=list)
+    findings: list[Finding] = field(default_factory=list)
+    outcomes: list[EventIngest] = field(default_factory=list)
     checks: dict[str, Any] = field(default_factory=dict)
 
-    def add(self, code: str, where: str, message: str) -> None:
-        """Record one finding."""
-        self.events.append((code, where, message))
+    def add(self, code: str, where: str, message: str, start_ns: int, end_ns: int,
+            action: str = "noted") -> Finding:
+        """Record one finding and return it."""
+        finding = Finding(code, where, message, int(start_ns), int(end_ns), action)
+        self.findings.append(finding)
+        return finding
 
     def codes(self, where: str | None = None) -> list[str]:
-        """Codes recorded (for one sensor/level, or all)."""
-        return [c for c, w, _ in self.events if where is None or w == where]
+        """Codes recorded for a sensor (its channels included), a channel, or all."""
+        return [f.code for f in self.findings
+                if where is None or f.where == where or f.sensor_id == where]
+
+    def about(self, where: str) -> list[Finding]:
+        """Findings of a sensor (its channels included) or a channel."""
+        return [f for f in self.findings if f.where == where or f.sensor_id == where]
+
+    def within(self, start_ns: int, end_ns: int) -> list[Finding]:
+        """Findings whose span meets ``[start_ns, end_ns]``."""
+        return [f for f in self.findings if f.overlaps(start_ns, end_ns)]
+
+    @property
+    def failed(self) -> list[EventIngest]:
+        """Events without a window."""
+        return [o for o in self.outcomes if o.window is None]
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
-        return {"events": [{"code": c, "where": w, "message": m} for c, w, m in self.events],
-                "checks": self.checks}
+        return {"findings": [f.as_dict() for f in self.findings],
+                "outcomes": [o.as_dict() for o in self.outcomes], "checks": self.checks}
 
 
 def fmt_time(t_ns: int) -> str:
-    return f"t = {t_ns / NS_PER_S:.3f} s"
+    """UTC time of ``t_ns`` (ns since the Unix epoch) to the millisecond."""
+    t_ns = int(t_ns)
+    stamp = datetime.fromtimestamp(t_ns // NS_PER_S, tz=timezone.utc)
+    return f"{stamp.strftime('%Y-%m-%dT%H:%M:%S')}.{(t_ns % NS_PER_S) // 1_000_000:03d}Z"
+
+
+def fmt_span(start_ns: int, end_ns: int) -> str:
+    """``<UTC start> for <duration> s``."""
+    return f"{fmt_time(start_ns)} for {(int(end_ns) - int(start_ns)) / NS_PER_S:.2f} s"

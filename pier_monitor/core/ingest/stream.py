@@ -6,19 +6,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pier_monitor.core.ingest.clean import clean_recording
+from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.ingest.events import detect_events, trigger_threshold
-from pier_monitor.core.ingest.levels import level_motion
+from pier_monitor.core.ingest.levels import level_motion_partial
+from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
 from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.ingest.windows import ingest_recording
 from pier_monitor.core.model.config import PierConfig
 
-__all__ = ["StreamIngest", "StreamCounts", "EXCLUSION_CODES"]
-
-#: Report codes of a sensor (or part of one) left out of the ingest.
-EXCLUSION_CODES = ("gap_excluded", "dead", "saturated", "implausible_units", "rate_mismatch")
+__all__ = ["StreamIngest", "StreamCounts"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +54,10 @@ class StreamIngest:
     returned by :meth:`push`.  Nothing received is dropped: samples stay in the buffer until
     they are older than ``buffer_s``, and :attr:`counts` accounts for every one of them
     (gaps and duplicates by sample index).
+
+    :attr:`report` gathers every finding once, and in ``report.outcomes`` the outcome of
+    every event handed on: with its window, or failed (the reason names the level, sensors,
+    time and cause) or cut by the end of the stream.
 
     The configuration history lives here too: :meth:`update_config` adds an update (e.g.
     deck mass added before a run) and :meth:`config_at` answers which configuration held at
@@ -116,9 +118,10 @@ class StreamIngest:
         return self._history.config_at(time_ns)
 
     def exclusions(self) -> list[str]:
-        """``"<sensor>: <code>"`` for every exclusion reported so far, sorted."""
-        return sorted({f"{where}: {code}" for code, where, _ in list(self.report.events)
-                       if code in EXCLUSION_CODES})
+        """``"<sensor>: <code>"`` for every exclusion reported so far (findings whose action
+        is ``excluded``: a sensor, a channel or a stretch of one left out), sorted."""
+        return sorted({f"{f.where}: {f.code}" for f in list(self.report.findings)
+                       if f.action == "excluded"})
 
     def push(self, sensor_id: str, time_ns: np.ndarray, data: np.ndarray,
              sample_index: np.ndarray | None = None) -> list[MeasuredWindow]:
@@ -131,12 +134,20 @@ class StreamIngest:
 
         Returns the windows of events that have just ended (usually none).
         """
-        if sensor_id not in self._mapped:
-            self.report.add("unmapped_sensor", sensor_id, "sample block of a sensor that is "
-                            "not in the sensor map; ignored")
-            return []
         time_ns = np.asarray(time_ns, dtype=np.int64).reshape(-1)
-        data = np.asarray(data, dtype=float).reshape(time_ns.size, -1)
+        if sensor_id not in self._mapped:
+            if not any(f.code == "unmapped_sensor" and f.where == sensor_id
+                       for f in self.report.findings):
+                t = int(time_ns[0]) if time_ns.size else 0
+                self.report.add("unmapped_sensor", sensor_id, "sample blocks of a sensor that "
+                                "is not in the sensor map; ignored", t, t)
+            return []
+        n_axes = len(self.config.sensor(sensor_id).axes)
+        data = np.asarray(data, dtype=float)
+        if data.size != time_ns.size * n_axes:
+            raise InputDataError(f"sensor {sensor_id}: block of {time_ns.size} times but "
+                                 f"{data.size} values; expected {time_ns.size} x {n_axes}")
+        data = data.reshape(time_ns.size, n_axes)
         if sample_index is None:
             first = self._first_ns.setdefault(sensor_id, int(time_ns[0]) if time_ns.size else 0)
             sample_index = np.rint((time_ns - first) * (self.rate / NS_PER_S)).astype(np.int64)
@@ -204,28 +215,29 @@ class StreamIngest:
         quiet_ns = int((s.merge_gap_s + s.context_s) * NS_PER_S)
         scratch = IngestReport()
         cleaned, t0, n, rate = clean_recording(found, s, scratch)
-        ag_xy = level_motion(cleaned, "acceleration", 0, slice(0, n), False)
+        ag_xy = level_motion_partial(cleaned, "acceleration", 0, slice(0, n))
         if ag_xy is None:
             return []
-        spans = detect_events(np.nan_to_num(ag_xy), rate, trigger_threshold(self.config, s), s)
+        spans = detect_events(ag_xy, rate, trigger_threshold(self.config, s), s)
         end_ns = found.end_ns
-        ready = [(w0, w1) for w0, w1 in spans
-                 if t0 + int(w0 * NS_PER_S / rate) > self._done_until_ns
-                 and (final or end_ns - (t0 + int(w1 * NS_PER_S / rate)) >= quiet_ns)]
+        ready = [sp for sp in spans
+                 if t0 + int(sp.start * NS_PER_S / rate) > self._done_until_ns
+                 and (final or end_ns - (t0 + int(sp.end * NS_PER_S / rate)) >= quiet_ns)]
         if not ready:
             return []
-        windows, report = ingest_recording(self._recording(), s)
+        _, report = ingest_recording(self._recording(), s)
         # each ingest reports on the whole buffer: keep every finding once
-        seen = set(self.report.events)
-        self.report.events.extend(e for e in report.events if e not in seen)
+        seen = set(self.report.findings)
+        self.report.findings.extend(f for f in report.findings if f not in seen)
         self.report.checks.update(report.checks)
         out = []
-        for w in windows:
-            if w.start_time_ns <= self._done_until_ns:
+        for outcome in report.outcomes:
+            if outcome.start_ns <= self._done_until_ns:
                 continue
-            w_end = w.start_time_ns + int(round(w.duration_s * NS_PER_S))
-            if not final and end_ns - w_end < quiet_ns:
+            if not final and end_ns - outcome.end_ns < quiet_ns:
                 continue
-            out.append(w)
-            self._done_until_ns = w.start_time_ns
+            self.report.outcomes.append(outcome)
+            self._done_until_ns = outcome.start_ns
+            if outcome.window is not None:
+                out.append(outcome.window)
         return out

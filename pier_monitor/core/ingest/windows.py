@@ -1,18 +1,31 @@
-"""Whole-recording ingest: cleaned sensors to mainshock windows."""
+"""Whole-recording ingest: cleaned sensors to mainshock windows, event by event.
+
+Each detected event gets its own outcome (:class:`~pier_monitor.core.ingest.settings.
+EventIngest`): a window, or a failure that names the level, the sensors, the time and the
+cause.  A fault in one event's data never costs another event its window.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 from scipy import signal
 
-from pier_monitor.core.ingest.clean import CleanSensor, clean_recording
-from pier_monitor.core.ingest.events import detect_events, make_event_id, trigger_threshold
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.ingest.clean import CleanSensor
+from pier_monitor.core.ingest.consistency import check_displacement
+from pier_monitor.core.ingest.events import (EventSpan, detect_events, make_event_id,
+                                             trigger_threshold)
 from pier_monitor.core.ingest.fusion import fuse_acceleration_displacement
-from pier_monitor.core.ingest.levels import estimate_principal_direction, level_motion, level_noise_si
+from pier_monitor.core.ingest.levels import (estimate_principal_direction, level_motion,
+                                             level_motion_partial, level_noise_si)
+from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording
-from pier_monitor.core.ingest.settings import IngestError, IngestReport, IngestSettings
+from pier_monitor.core.ingest.settings import (EventIngest, IngestError, IngestReport,
+                                               IngestSettings, LevelUnusableError, fmt_span,
+                                               fmt_time)
 from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
 from pier_monitor.core.numerics import cumulative_trapezoid
 
@@ -47,10 +60,13 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
     x_rel = np.full((c1 - c0, n_lv), np.nan)
     for lv in range(1, n_lv + 1):
         a_xy = level_motion(cleaned, "acceleration", lv, sl, False, counts)
+        wires = cleaned
         if a_xy is not None:
             a_abs = a_xy @ e_p
             a_rel[:, lv - 1] = a_abs - a_abs[lead].mean() - ag
-        wire = level_motion(cleaned, "displacement", lv, sl, False, counts)
+            wires = _without_disagreeing_wires(cleaned, lv, sl, a_xy - ag_xy, rate, settings,
+                                               report)
+        wire = level_motion(wires, "displacement", lv, sl, False, counts)
         if wire is not None:
             wire = wire @ e_p
             x_rel[:, lv - 1] = wire - np.nanmean(wire[lead])
@@ -59,18 +75,25 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
     if not (has_a | has_x).any():
         raise IngestError(f"{event_id}: no usable acceleration or displacement sensor at any "
                           f"level above the foundation (levels 1-{n_lv}); nothing to identify")
+    t_lo = t0 + int(round(c0 * NS_PER_S / rate))
+    t_hi = t0 + int(round((c1 - 1) * NS_PER_S / rate))
     for lv in np.flatnonzero(~(has_a & has_x)) + 1:
         what = ("no usable sensor" if not (has_a[lv - 1] or has_x[lv - 1]) else
                 "no usable displacement sensor" if has_a[lv - 1] else
                 "no usable accelerometer")
-        report.add("unmeasured_level", f"level {lv}", f"{event_id}: {what}; its motion is "
-                   "reconstructed by the identifier")
+        report.add("unmeasured_level", f"level {lv}", f"{event_id}: {what} during "
+                   f"{fmt_span(t_lo, t_hi)}; its motion is reconstructed by the identifier",
+                   t_lo, t_hi, "noted")
     sig_a = np.array([math.hypot(level_noise_si(config, "acceleration", lv),
                                  level_noise_si(config, "acceleration", 0))
                       for lv in range(1, n_lv + 1)])
     sig_x = np.array([level_noise_si(config, "displacement", lv) for lv in range(1, n_lv + 1)])
     sig_a = np.where(np.isfinite(sig_a) & (sig_a > 0), sig_a, 1e-3)
     sig_x = np.where(np.isfinite(sig_x) & (sig_x > 0), sig_x, 1e-4)
+    factor = int(round(rate / settings.output_rate_hz))
+    if factor < 1 or abs(factor * settings.output_rate_hz - rate) > 1e-6 * rate:
+        raise IngestError(f"output_rate_hz {settings.output_rate_hz:g} must divide the sensor rate "
+                          f"{rate:g} Hz")
     both = has_a & has_x
     fused = None
     v_rel = np.full_like(a_rel, np.nan)
@@ -84,10 +107,9 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
         v_rel[:, both], x_out[:, both] = fused.v, fused.x
         x_sigma[both] = fused.x_sigma[inner].mean(axis=0)
         v_sigma[both] = fused.v_sigma[inner].mean(axis=0)
-        factor_ = max(1, int(round(rate / settings.output_rate_hz)))
         # increments over one output step (factor sensor steps)
-        dx_sigma[both] = np.sqrt(factor_ * np.mean(fused.dx_sigma[inner] ** 2, axis=0))
-        dv_sigma[both] = np.sqrt(factor_ * np.mean(fused.dv_sigma[inner] ** 2, axis=0))
+        dx_sigma[both] = np.sqrt(factor * np.mean(fused.dx_sigma[inner] ** 2, axis=0))
+        dv_sigma[both] = np.sqrt(factor * np.mean(fused.dv_sigma[inner] ** 2, axis=0))
     only_a = has_a & ~has_x
     if only_a.any():  # integrals of the acceleration, above highpass_hz only
         v_rel[:, only_a], x_out[:, only_a] = _integrate_highpass(a_rel[:, only_a], rate,
@@ -103,9 +125,7 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
     if v0_xy is not None:
         for lv in range(1, n_lv + 1):
             v_xy = level_motion(cleaned, "velocity", lv, sl, False, counts)
-            if v_xy is None:
-                continue
-            if not both[lv - 1]:
+            if v_xy is None or not both[lv - 1]:
                 continue
             meter = (v_xy - v0_xy) @ e_p
             d = meter[inner] - meter[inner].mean() - (v_rel[inner, lv - 1]
@@ -114,10 +134,6 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
                 "rms_difference_mps": float(np.sqrt(np.mean(d ** 2))),
                 "rms_velocity_mps": float(np.sqrt(np.mean(v_rel[inner, lv - 1] ** 2)))}
     report.checks.setdefault("velocity_meter", {})[event_id] = checks
-    factor = int(round(rate / settings.output_rate_hz))
-    if factor < 1 or abs(factor * settings.output_rate_hz - rate) > 1e-6 * rate:
-        raise IngestError(f"output_rate_hz {settings.output_rate_hz:g} must divide the sensor rate "
-                          f"{rate:g} Hz")
     # decimated sample k is sensor sample c0 + k·factor; keep those inside [w0, w1)
     k0 = -(-(w0 - c0) // factor)
     k1 = -(-(w1 - c0) // factor)
@@ -151,38 +167,129 @@ def _integrate_highpass(acc: np.ndarray, rate: float, highpass_hz: float
     return v, x
 
 
+def _without_disagreeing_wires(cleaned: list[CleanSensor], level: int, sl: slice,
+                               a_rel_xy: np.ndarray, rate: float, settings: IngestSettings,
+                               report: IngestReport) -> list[CleanSensor]:
+    """``cleaned`` with the displacement channels of a level that disagree with its
+    acceleration over ``sl`` made unusable there (copies; the originals stay as they are)."""
+    flagged = check_displacement(cleaned, level, sl, a_rel_xy, rate, settings)
+    if not flagged:
+        return cleaned
+    out = list(cleaned)
+    for ch, share in flagged:
+        cs = ch.sensor
+        usable = cs.usable.copy()
+        usable[sl, ch.column] = False
+        out[out.index(cs)] = dataclasses.replace(cs, usable=usable)
+        t0, t1 = cs.time_ns(sl.start), cs.time_ns(sl.stop - 1)
+        report.add("inconsistent", ch.name, f"disagrees with the acceleration of level {level} "
+                   f"integrated twice {fmt_span(t0, t1)}: it departs by {share:.0%} of the "
+                   "motion in 0.2-10 Hz (more than its noise and gain allow); excluded for "
+                   "this event", t0, t1, "excluded")
+    return out
+
+
+def _explain(err: Exception, recording: Recording, report: IngestReport, start_ns: int,
+             end_ns: int) -> str:
+    """Why an event failed: the error, and for a level without usable sensors what became of
+    each of its sensors over the event (their findings)."""
+    if not isinstance(err, LevelUnusableError):
+        return f"{err} ({fmt_span(start_ns, end_ns)})"
+    parts = []
+    for spec in recording.config.sensors_at(err.level, err.kind):
+        if spec.sensor_id not in recording.sensors:
+            parts.append(f"{spec.sensor_id}: no samples at all")
+            continue
+        excluded = [f for f in report.about(spec.sensor_id)
+                    if f.action == "excluded" and f.overlaps(start_ns, end_ns)]
+        if excluded:
+            parts.append("; ".join(f"{f.where}: {f.code} ({f.message})" for f in excluded[:2]))
+    detail = ": " + "; ".join(parts) if parts else ""
+    return f"{err} during {fmt_span(start_ns, end_ns)}{detail}"
+
+
+def _ingest_event(recording: Recording, cleaned: list[CleanSensor], t0: int, rate: float,
+                  span: EventSpan, ag_xy: np.ndarray, settings: IngestSettings,
+                  report: IngestReport) -> EventIngest:
+    """One event's outcome: its window, or why there is none."""
+    config = recording.config
+    n_all = ag_xy.shape[0]
+
+    def to_ns(i: int) -> int:
+        return t0 + int(round(i * NS_PER_S / rate))
+
+    start_ns, end_ns = t0 + int(span.start * NS_PER_S / rate), to_ns(span.end - 1)
+    event_id = make_event_id(config.pier_id, start_ns)
+    ctx = int(round(settings.context_s * rate))
+    c0_ns, c1_ns = to_ns(max(0, span.start - ctx)), to_ns(min(n_all, span.end + ctx) - 1)
+    if span.cut_start or span.cut_end:
+        edge = (f"end at {fmt_time(to_ns(n_all - 1))}" if span.cut_end
+                else f"begin at {fmt_time(t0)}")
+        reason = (f"event {event_id} is cut: the data {edge} while the ground is still "
+                  f"shaking ({fmt_span(start_ns, end_ns)} of it recorded); no window")
+        report.add("event_cut", event_id, reason, start_ns, end_ns, "failed")
+        return EventIngest(event_id, start_ns, end_ns, None, reason, "cut",
+                           tuple(report.within(c0_ns, c1_ns)))
+    direction = settings.principal_direction_deg
+    if direction is None:
+        direction = config.principal_direction_deg
+    try:
+        if direction is None:
+            seg = ag_xy[span.start:span.end]
+            seg = seg[np.isfinite(seg).all(axis=1)]
+            if seg.shape[0] < 2:
+                raise IngestError(f"level 0: no foundation acceleration to estimate the "
+                                  f"principal direction of event {event_id}")
+            direction = estimate_principal_direction(seg - seg.mean(axis=0))
+            report.add("principal_direction", event_id, f"estimated from the foundation "
+                       f"acceleration: {direction:.2f} deg", start_ns, end_ns)
+        window = _window_from_span(recording, cleaned, t0, rate, span.start, span.end,
+                                   direction, settings, report, event_id)
+    except (IngestError, InputDataError) as err:
+        reason = _explain(err, recording, report, c0_ns, c1_ns)
+        report.add("event_failed", event_id, reason, start_ns, end_ns, "failed")
+        return EventIngest(event_id, start_ns, end_ns, None, reason, "failed",
+                           tuple(report.within(c0_ns, c1_ns)))
+    findings = tuple(report.within(c0_ns, c1_ns))
+    window = dataclasses.replace(window, report={**window.report,
+                                                 "findings": [f.as_dict() for f in findings]})
+    return EventIngest(event_id, start_ns, end_ns, window, None, "ingested", findings)
+
+
 def ingest_recording(recording: Recording, settings: IngestSettings | None = None
                      ) -> tuple[list[MeasuredWindow], IngestReport]:
     """All mainshock windows of a recording, and the report of what was done.
 
-    "No event" is a normal result: an empty list.
+    "No event" is a normal result: an empty list.  Every detected event has an outcome in
+    ``report.outcomes``, in time order: its window (also in the returned list), or why it
+    has none (a level without usable sensors, data cut by the end of the recording, ...);
+    one event's failure never loses another's window.  Each window's ``report["findings"]``
+    lists the findings about its data.
+
+    Raises
+    ------
+    IngestError
+        Only when nothing can be ingested at all: every sensor contradicts the configured
+        rate, or the foundation has no usable accelerometer at any time.
     """
     settings = settings or IngestSettings()
     report = IngestReport()
     cleaned, t0, n, rate = clean_recording(recording, settings, report)
     config = recording.config
-    ag_xy = level_motion(cleaned, "acceleration", 0, slice(0, n), False)
-    if ag_xy is None:
-        raise IngestError("level 0 (foundation): no usable acceleration sensor; the ground "
-                          "motion is needed")
-    direction = settings.principal_direction_deg
-    if direction is None:
-        direction = config.principal_direction_deg
+    ag_xy = level_motion_partial(cleaned, "acceleration", 0, slice(0, n))
+    if ag_xy is None or not np.isfinite(ag_xy).any():
+        t_end = t0 + int(round((n - 1) * NS_PER_S / rate))
+        raise IngestError(_explain(LevelUnusableError(
+            "level 0 (foundation): no usable acceleration sensor at any time; the ground "
+            "motion is needed", 0, "acceleration"), recording, report, t0, t_end))
     threshold = trigger_threshold(config, settings)
     # trigger on both horizontal components: the direction may still be unknown
-    spans = detect_events(np.nan_to_num(ag_xy), rate, threshold, settings)
+    spans = detect_events(ag_xy, rate, threshold, settings)
     report.checks["trigger_threshold_mps2"] = threshold
-    windows = []
-    for k, (w0, w1) in enumerate(spans):
-        d = direction
-        if d is None:
-            d = estimate_principal_direction(ag_xy[w0:w1] - ag_xy[w0:w1].mean(axis=0))
-            report.add("principal_direction", f"event{k + 1}",
-                       f"estimated from the foundation acceleration: {d:.2f} deg")
-        event_id = make_event_id(config.pier_id, t0 + int(w0 * NS_PER_S / rate))
-        windows.append(_window_from_span(recording, cleaned, t0, rate, w0, w1, d, settings,
-                                         report, event_id))
+    for span in spans:
+        report.outcomes.append(_ingest_event(recording, cleaned, t0, rate, span, ag_xy,
+                                             settings, report))
     if not spans:
         report.add("no_event", config.pier_id, f"no mainshock: the foundation RMS never exceeded "
-                   f"{threshold:.3g} m/s²")
-    return windows, report
+                   f"{threshold:.3g} m/s²", t0, t0 + int(round((n - 1) * NS_PER_S / rate)))
+    return [o.window for o in report.outcomes if o.window is not None], report

@@ -30,7 +30,16 @@ Layout of the file (SI units, names carry them)::
         gain: 1.0                    # recorded = gain * true + offset (in ``unit``)
         offsets: [0.0, 0.0, 0.0]
         noise_rms: 0.1               # expected noise, in ``unit`` (optional)
+        full_scale: 2000.0           # |recorded| above this is impossible, in ``unit``
+                                     # (optional; accelerometers and velocity meters)
         location: north face         # free text (optional)
+      - id: wire_l1_n                # a displacement transducer
+        ...
+        range: [0.0, 1000.0]         # recorded values outside are impossible, in ``unit``
+                                     # (optional; displacement sensors)
+
+``pier_id`` names directories on disk: 1 to 64 characters of ``[A-Za-z0-9_-]``
+(:func:`pier_monitor.core.ids.check_id`).
 
 Level ``n`` sits at height ``z_n = h_1 + ... + h_n``; the foundation is level 0 at ``z_0 = 0``.
 """
@@ -45,7 +54,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import yaml
 
-from pier_monitor.core.errors import ConfigError
+from pier_monitor.core.errors import ConfigError, UnsafeNameError
+from pier_monitor.core.ids import check_id
 from pier_monitor.core.model.units import UNIT_FACTORS, to_si_factor
 
 __all__ = [
@@ -210,6 +220,10 @@ class SensorSpec:
     ``orientation_deg`` (counter-clockwise from the pier's X axis), ``y`` at
     ``orientation_deg + 90``, ``z`` up.  A displacement transducer usually has a single
     axis ``x`` pointing along its wire.
+
+    ``full_scale`` (accelerometers, velocity meters) and ``value_range`` (displacement
+    sensors; ``range`` in the YAML file) bound the recorded values, in ``unit``: a sample
+    beyond them is physically impossible and is treated as missing.  None = not known.
     """
 
     sensor_id: str
@@ -224,6 +238,8 @@ class SensorSpec:
     offsets: tuple[float, ...] = ()
     noise_rms: float = 0.0
     location: str = ""
+    full_scale: float | None = None
+    value_range: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if not self.signs:
@@ -254,7 +270,15 @@ class SensorSpec:
             "unit": self.unit, "axes": list(self.axes), "orientation_deg": self.orientation_deg,
             "signs": list(self.signs), "gain": self.gain, "offsets": list(self.offsets),
             "noise_rms": self.noise_rms, "location": self.location,
+            **({"full_scale": self.full_scale} if self.full_scale is not None else {}),
+            **({"range": list(self.value_range)} if self.value_range is not None else {}),
         }
+
+    def recorded_bounds(self) -> tuple[float, float] | None:
+        """Lowest and highest possible recorded value, in ``unit``; None when not known."""
+        if self.full_scale is not None:
+            return (-self.full_scale, self.full_scale)
+        return self.value_range
 
 
 @dataclass(frozen=True)
@@ -271,6 +295,10 @@ class PierConfig:
     source: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
+        try:
+            check_id("pier_id", self.pier_id)
+        except UnsafeNameError as err:
+            raise ConfigError(f"{self.source}: {err}" if self.source else str(err)) from None
         if self.design.n_springs != self.geometry.n_levels:
             raise ConfigError(
                 f"{self.source or self.pier_id}: design parameters have {self.design.n_springs} "
@@ -362,7 +390,7 @@ class _Ctx:
 
 _SECTION_KEYS = {"height_m", "mass_kg", "k1_Nm_per_rad", "k2_Nm_per_rad", "fy_Nm", "c_Nms_per_rad"}
 _SENSOR_KEYS = {"id", "topic", "level", "kind", "unit", "axes", "orientation_deg", "signs", "gain",
-                "offsets", "noise_rms", "location"}
+                "offsets", "noise_rms", "location", "full_scale", "range"}
 _TOP_KEYS = {"pier_id", "description", "sample_rate_hz", "principal_direction_deg", "sections",
              "sensors"}
 
@@ -406,6 +434,7 @@ def _parse_sensor(ctx: _Ctx, raw: Any, i: int, n_levels: int) -> SensorSpec:
     gain = ctx.number(raw, "gain", path, default=1.0)
     if gain == 0:
         raise ctx.fail(f"{path}.gain", "expected a non-zero number, got 0")
+    full_scale, value_range = _parse_bounds(ctx, raw, path, kind, unit, offsets)
     return SensorSpec(
         sensor_id=sensor_id,
         topic=ctx.string(raw, "topic", path),
@@ -419,7 +448,40 @@ def _parse_sensor(ctx: _Ctx, raw: Any, i: int, n_levels: int) -> SensorSpec:
         offsets=tuple(float(o) for o in offsets),
         noise_rms=ctx.number(raw, "noise_rms", path, nonneg=True, default=0.0),
         location=ctx.string(raw, "location", path, default=""),
+        full_scale=full_scale,
+        value_range=value_range,
     )
+
+
+def _parse_bounds(ctx: _Ctx, raw: Mapping[str, Any], path: str, kind: str, unit: str,
+                  offsets: list[float]) -> tuple[float | None, tuple[float, float] | None]:
+    """``full_scale`` (acceleration, velocity) and ``range`` (displacement) of a sensor."""
+    full_scale = value_range = None
+    if "full_scale" in raw:
+        if kind == "displacement":
+            raise ctx.fail(f"{path}.full_scale", "a displacement sensor states its range "
+                           "[min, max] instead (field range)")
+        full_scale = ctx.number(raw, "full_scale", path, positive=True)
+        bad = [o for o in offsets if abs(o) >= full_scale]
+        if bad:
+            raise ctx.fail(f"{path}.full_scale", f"{full_scale:g} {unit} does not cover the "
+                           f"offset {bad[0]:g} {unit} (the reading at rest)")
+    if "range" in raw:
+        if kind != "displacement":
+            raise ctx.fail(f"{path}.range", f"only displacement sensors have a range; a "
+                           f"{kind} sensor states its full_scale")
+        r = raw["range"]
+        if (not isinstance(r, list) or len(r) != 2
+                or any(isinstance(v, bool) or not isinstance(v, (int, float))
+                       or not math.isfinite(v) for v in r) or not r[0] < r[1]):
+            raise ctx.fail(f"{path}.range", f"expected [min, max] with min < max in {unit}, "
+                           f"got {r!r}")
+        value_range = (float(r[0]), float(r[1]))
+        bad = [o for o in offsets if not value_range[0] <= o <= value_range[1]]
+        if bad:
+            raise ctx.fail(f"{path}.range", f"{list(value_range)} {unit} does not hold the "
+                           f"offset {bad[0]:g} {unit} (the reading at rest)")
+    return full_scale, value_range
 
 
 def config_from_dict(raw: Any, source: str = "") -> PierConfig:
@@ -509,4 +571,7 @@ def load_config(path: str | Path) -> PierConfig:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
         raise ConfigError(f"{path}: cannot read pier configuration: {err.strerror}") from err
+    except UnicodeDecodeError as err:
+        raise ConfigError(f"{path}: not UTF-8 text (byte 0x{err.object[err.start]:02x} at "
+                          f"offset {err.start}); save the configuration as UTF-8") from None
     return config_from_yaml(text, source=path.name)

@@ -4,13 +4,18 @@ Accelerations are held in m/s², time-first, uniformly sampled from ``t = 0``.
 
 File formats read by :func:`load_accelerogram`:
 
-* one value per line (or several per line, read row by row), with ``dt`` given;
+* one value per line, with ``dt`` given;
 * two columns ``time, acceleration`` (``dt`` taken from the time column, which must be
   uniform);
-* PEER NGA ``.AT2`` files (four header lines, ``NPTS= …, DT= …`` on the fourth, values in g).
+* more columns only with the acceleration column chosen (``column``, counted from 1); the
+  time is then column 1 unless ``dt`` is given (a file of several components would
+  otherwise be read as one record);
+* PEER NGA ``.AT2`` files (four header lines, ``NPTS= …, DT= …`` on the fourth, values in g,
+  several per row).
 
 Lines starting with ``#`` or ``%`` are comments.  The unit must be declared: ``g``, ``gal``
-(cm/s²) or ``mps2`` (m/s²).
+(cm/s²) or ``mps2`` (m/s²).  A record whose peak exceeds :data:`MAX_PGA_MPS2` (5 g), read or
+scaled, is refused as implausible.
 """
 
 from __future__ import annotations
@@ -27,9 +32,18 @@ from pier_monitor.core.errors import GroundMotionError
 from pier_monitor.core.model.units import to_si_factor
 
 __all__ = ["GroundMotion", "synthetic_near_fault", "load_accelerogram", "el_centro_1940",
-           "UNIT_CHOICES"]
+           "UNIT_CHOICES", "MAX_PGA_MPS2"]
 
 UNIT_CHOICES = ("g", "gal", "mps2")
+#: Largest plausible peak ground acceleration, m/s² (5 g; the strongest records reach 3-4 g).
+MAX_PGA_MPS2 = 50.0
+
+
+def _check_plausible(acc: np.ndarray, what: str, hint: str = "") -> None:
+    peak = float(np.max(np.abs(acc)))
+    if peak > MAX_PGA_MPS2:
+        raise GroundMotionError(f"{what}: peak {peak:.3g} m/s^2 is implausible for a ground "
+                                f"motion (> {MAX_PGA_MPS2:g} m/s^2 = 5 g){hint}")
 
 
 @dataclass(frozen=True)
@@ -81,15 +95,22 @@ class GroundMotion:
         return float(np.max(np.abs(self.acc)))
 
     def scaled(self, factor: float) -> "GroundMotion":
-        """The record multiplied by ``factor``."""
+        """The record multiplied by ``factor``; its peak must stay plausible
+        (:data:`MAX_PGA_MPS2`)."""
         if not np.isfinite(factor) or factor <= 0:
             raise GroundMotionError(f"scale factor must be positive, got {factor}")
-        return GroundMotion(self.acc * factor, self.dt, f"{self.name} x{factor:g}")
+        acc = self.acc * factor
+        _check_plausible(acc, f"{self.name or 'ground motion'} scaled by {factor:g}")
+        return GroundMotion(acc, self.dt, f"{self.name} x{factor:g}")
 
     def scaled_to_pga(self, pga_mps2: float) -> "GroundMotion":
-        """The record scaled so that its PGA is ``pga_mps2`` (m/s²)."""
+        """The record scaled so that its PGA is ``pga_mps2`` (m/s², at most
+        :data:`MAX_PGA_MPS2`)."""
         if not np.isfinite(pga_mps2) or pga_mps2 <= 0:
             raise GroundMotionError(f"PGA must be positive, got {pga_mps2}")
+        if pga_mps2 > MAX_PGA_MPS2:
+            raise GroundMotionError(f"PGA {pga_mps2:g} m/s^2 is implausible for a ground motion "
+                                    f"(> {MAX_PGA_MPS2:g} m/s^2 = 5 g)")
         if self.pga == 0:
             raise GroundMotionError(f"{self.name}: record is all zeros, cannot scale to a PGA")
         return GroundMotion(self.acc * (pga_mps2 / self.pga), self.dt,
@@ -188,7 +209,8 @@ def synthetic_near_fault(duration_s: float = 60.0, dt: float = 0.01, pga_mps2: f
 _AT2_HEADER = re.compile(r"NPTS\s*=\s*(\d+)\s*,?\s*DT\s*=\s*([0-9.eE+-]+)", re.IGNORECASE)
 
 
-def load_accelerogram(path: str | Path, units: str, dt: float | None = None) -> GroundMotion:
+def load_accelerogram(path: str | Path, units: str, dt: float | None = None,
+                      column: int | None = None) -> GroundMotion:
     """Read an accelerogram file (see the module docstring for the formats).
 
     Parameters
@@ -200,6 +222,9 @@ def load_accelerogram(path: str | Path, units: str, dt: float | None = None) -> 
     dt : float, optional
         Sampling period, s; required for single-column files, checked against the file's
         own when it has one.
+    column : int, optional
+        The acceleration column, counted from 1; required for files of more than two
+        columns (column 1 is then the time unless ``dt`` is given).
 
     Raises
     ------
@@ -236,35 +261,43 @@ def load_accelerogram(path: str | Path, units: str, dt: float | None = None) -> 
                 f"{path.name}: line {lineno}: not a number in {stripped[:60]!r}") from None
     if not rows:
         raise GroundMotionError(f"{path.name}: no acceleration values found")
+    if column is not None and (isinstance(column, bool) or not isinstance(column, int)
+                               or column < 1):
+        raise GroundMotionError(f"{path.name}: column must be a column number from 1, got "
+                                f"{column!r}")
+    widths = {len(r) for r in rows}
     if file_dt is not None:  # AT2: values in rows of several columns, read row by row
+        if column is not None:
+            raise GroundMotionError(f"{path.name}: a PEER .AT2 file holds one record; do not "
+                                    "choose a column")
         values = np.array([v for row in rows for v in row])
+    elif len(widths) > 1:
+        raise GroundMotionError(
+            f"{path.name}: rows have different numbers of columns {sorted(widths)}; expected "
+            "one column, two (time, acceleration), or a table with the acceleration column "
+            "chosen")
+    elif column is not None:
+        (width,) = widths
+        if column > width:
+            raise GroundMotionError(f"{path.name}: column {column} chosen but the rows have "
+                                    f"{width} columns")
+        arr = np.array(rows)
+        values = arr[:, column - 1]
+        if dt is None and column != 1:
+            file_dt = _time_column_step(path, arr[:, 0])
     else:
-        widths = {len(r) for r in rows}
-        if widths == {2}:
+        (width,) = widths
+        if width > 2:
+            raise GroundMotionError(
+                f"{path.name}: {width} columns; choose the acceleration column (column=, "
+                "pier-monitor simulate --column N, counted from 1); the time is then column 1 "
+                "unless dt is given")
+        if width == 2:
             arr = np.array(rows)
-            t_col, values = arr[:, 0], arr[:, 1]
-            steps = np.diff(t_col)
-            if steps.size == 0 or np.any(steps <= 0):
-                i = int(np.flatnonzero(steps <= 0)[0]) if steps.size else 0
-                raise GroundMotionError(
-                    f"{path.name}: time column must increase; it does not at row {i + 2}")
-            file_dt = float(np.median(steps))
-            off = np.flatnonzero(np.abs(steps - file_dt) > 1e-3 * file_dt)
-            if off.size:
-                raise GroundMotionError(
-                    f"{path.name}: time column is not uniform: step {steps[off[0]]:g} s at "
-                    f"t = {t_col[off[0]]:g} s, expected {file_dt:g} s")
-            if abs(t_col[0]) > 1e-9:
-                raise GroundMotionError(
-                    f"{path.name}: time column must start at 0, starts at {t_col[0]:g} s")
+            values = arr[:, 1]
+            file_dt = _time_column_step(path, arr[:, 0])
         else:
-            body = {len(r) for r in rows[:-1]} or widths
-            if len(body) != 1 or len(rows[-1]) > next(iter(body)):
-                raise GroundMotionError(
-                    f"{path.name}: rows have different numbers of columns {sorted(widths)}; "
-                    "expected one column, two (time, acceleration), or a fixed number of values "
-                    "per row read row by row")
-            values = np.array([v for row in rows for v in row])
+            values = np.array([row[0] for row in rows])
     if file_dt is None:
         if dt is None:
             raise GroundMotionError(
@@ -277,11 +310,28 @@ def load_accelerogram(path: str | Path, units: str, dt: float | None = None) -> 
         raise GroundMotionError(
             f"{path.name}: non-finite value at sample {bad[0]} (t = {bad[0] * file_dt:.3f} s)")
     acc = values * factor
-    if np.max(np.abs(acc)) > 50.0:
-        raise GroundMotionError(
-            f"{path.name}: peak {np.max(np.abs(acc)):.3g} m/s^2 after converting from {units!r} "
-            "is implausible for a ground motion (> 5 g); check the declared units")
+    _check_plausible(acc, f"{path.name}: after converting from {units!r}",
+                     "; check the declared units")
     return GroundMotion(acc, float(file_dt), path.name)
+
+
+def _time_column_step(path: Path, t_col: np.ndarray) -> float:
+    """The step of a time column, which must increase uniformly from 0, s."""
+    steps = np.diff(t_col)
+    if steps.size == 0 or np.any(steps <= 0):
+        i = int(np.flatnonzero(steps <= 0)[0]) if steps.size else 0
+        raise GroundMotionError(
+            f"{path.name}: time column must increase; it does not at row {i + 2}")
+    file_dt = float(np.median(steps))
+    off = np.flatnonzero(np.abs(steps - file_dt) > 1e-3 * file_dt)
+    if off.size:
+        raise GroundMotionError(
+            f"{path.name}: time column is not uniform: step {steps[off[0]]:g} s at "
+            f"t = {t_col[off[0]]:g} s, expected {file_dt:g} s")
+    if abs(t_col[0]) > 1e-9:
+        raise GroundMotionError(
+            f"{path.name}: time column must start at 0, starts at {t_col[0]:g} s")
+    return file_dt
 
 
 def el_centro_1940() -> GroundMotion:

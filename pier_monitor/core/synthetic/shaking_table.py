@@ -573,18 +573,24 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         table[s0:s0 + comps[0].size] += np.stack(comps, axis=1)
     table_vel = _integrate(table, dt)
 
-    # structural response, run by run; parameters switch halfway through each gap
+    # structural response, run by run; parameters switch halfway through each gap.  The next
+    # segment starts with the velocities the last one ended with (and, elastic across the
+    # shaking, the transverse displacements): no jump in a velocity meter at the switch.
+    # Its springs start unloaded, the principal drift carried as an offset.
     bounds = [0] + [s - n_gap // 2 for s in starts[1:]] + [total]
     rel = {k: np.zeros((total, n)) for k in ("xp", "vp", "ap", "xt", "vt", "at")}
     offset = np.zeros(n)
+    v_end, xt_end, vt_end = np.zeros(n), np.zeros(n), np.zeros(n)
     run_truths: list[RunTruth] = []
     times = sample_times_ns(scenario.start_ns, total, rate)
     end_ns = int(times[-1]) + int(round(NS_PER_S / rate))
     for i, (run, (seeds, comps), s0) in enumerate(zip(scenario.runs, records, starts)):
         b0, b1 = bounds[i], bounds[i + 1]
         geometry, params = piers[i]
-        resp = simulate(geometry, params, table[b0:b1, 0], dt, dt=_INTERNAL_DT_S, output_dt=dt)
+        resp = simulate(geometry, params, table[b0:b1, 0], dt, dt=_INTERNAL_DT_S, output_dt=dt,
+                        v0=v_end)
         resp_t = simulate(geometry, _elastic(params), table[b0:b1, 1], dt, dt=_INTERNAL_DT_S,
+                          x0=xt_end, v0=vt_end,
                           output_dt=dt)
         rel["xp"][b0:b1] = resp.x + offset
         rel["vp"][b0:b1] = resp.v
@@ -620,6 +626,7 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
             motion_seeds=seeds,
         ))
         offset = offset + resp.x[-1]
+        v_end, xt_end, vt_end = resp.v[-1], resp_t.x[-1], resp_t.v[-1]
 
     # true 3-D motion of every level in the pier frame (X, Y, Z), SI
     phi = np.radians(principal_direction_deg)

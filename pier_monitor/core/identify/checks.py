@@ -1,0 +1,170 @@
+"""Self-check of an identification: is the result plausible enough to be believed?
+
+A damage state said with confidence on a result that the data do not support is the worst
+failure of a monitoring product.  :func:`check_identification` looks at what an
+identification produced and returns the reasons to call it *unreliable* (an empty list
+when there are none):
+
+* a parameter is not finite, or sits at a bound of the identification (``k2`` at its cap);
+* ``k1`` is near zero or far from the design value (outside ``k1_ratio``);
+* ``c`` is near zero (or far above) relative to the design damping, or, without one, to a
+  2 % stiffness-proportional damping of the first mode;
+* a ductility factor is implausible (above ``max_df``);
+* the reproduced responses depart from the measured ones, per level and quantity, by more
+  than ``misfit_rel`` plus ``misfit_noise`` standard deviations of the measurement noise
+  (relative RMS).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.identify.damage import ductility_factors
+from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
+from pier_monitor.core.model.config import SpringParameters
+from pier_monitor.core.model.link_model import natural_periods
+
+__all__ = ["CheckLimits", "check_identification"]
+
+
+@dataclass(frozen=True)
+class CheckLimits:
+    """Bounds of a believable identification (ratios are identified / reference).
+
+    Attributes
+    ----------
+    k1_ratio : tuple of float
+        Plausible ``k1`` against the design value (damage lowers it, rarely below 5 %).
+    c_ratio : tuple of float
+        Plausible ``c`` against the design (or 2 %-of-critical) damping.
+    k2_cap : float
+        The identification's bound ``k2 <= k2_cap * k1`` (the PINN's projection).
+    bound_tol : float
+        Within this relative distance of a bound a parameter sits at it.
+    max_df : float
+        Largest plausible ductility factor.
+    misfit_rel : float
+        Relative RMS misfit of the reproduced responses allowed on top of the noise.
+    misfit_noise : float
+        Noise standard deviations of misfit allowed on top of ``misfit_rel``.
+    """
+
+    k1_ratio: tuple[float, float] = (0.05, 20.0)
+    c_ratio: tuple[float, float] = (0.01, 100.0)
+    k2_cap: float = 0.5
+    bound_tol: float = 1e-3
+    max_df: float = 20.0
+    misfit_rel: float = 0.25
+    misfit_noise: float = 3.0
+
+
+def _reference_damping(window: MeasuredWindow) -> np.ndarray:
+    """The design ``c``, or 2 % stiffness-proportional damping of the first mode."""
+    design = window.design
+    omega1 = 2.0 * math.pi / float(np.max(natural_periods(window.geometry, design)))
+    fallback = 2.0 * 0.02 / omega1 * design.k1
+    return np.where(design.c > 0, design.c, fallback)
+
+
+def check_identification(params: SpringParameters, reproduced: Reproduced,
+                         window: MeasuredWindow, limits: CheckLimits | None = None) -> list[str]:
+    """Reasons why an identification of ``window`` should not be believed (empty: none).
+
+    Parameters
+    ----------
+    params : SpringParameters
+        The identified ``k1, k2, fy, c`` (N springs).
+    reproduced : Reproduced
+        The responses the identification reproduces over the window, (T, N) each.
+    window : MeasuredWindow
+        The measured window it was identified from (design values, noise, coverage).
+    limits : CheckLimits, optional
+
+    Returns
+    -------
+    list of str
+        One sentence per problem, naming the section or level and the numbers.
+
+    Raises
+    ------
+    InputDataError
+        If the shapes of ``params``, ``reproduced`` and ``window`` do not match.
+    """
+    lim = limits or CheckLimits()
+    n = window.n_levels
+    if params.n_springs != n:
+        raise InputDataError(f"params: expected {n} springs, got {params.n_springs}")
+    for name in ("a", "v", "x", "theta"):
+        arr = np.asarray(getattr(reproduced, name))
+        if arr.shape != (window.t.size, n):
+            raise InputDataError(f"reproduced {name}: expected shape ({window.t.size}, {n}), "
+                                 f"got {arr.shape}")
+    reasons = _parameter_reasons(params, window, lim)
+    theta = np.asarray(reproduced.theta)
+    if not np.all(np.isfinite(theta)):
+        reasons.append("the reproduced spring angles are not finite")
+    else:
+        df = ductility_factors(theta, params)
+        for i in np.flatnonzero(~np.isfinite(df) | (df > lim.max_df)):
+            reasons.append(f"section {i + 1}: ductility factor {df[i]:.3g} is implausible "
+                           f"(above {lim.max_df:g})")
+    reasons += _misfit_reasons(reproduced, window, lim)
+    return reasons
+
+
+def _ratio_reason(where: str, name: str, unit: str, value: float, ref: float,
+                  bounds: tuple[float, float], ref_name: str) -> list[str]:
+    """A reason when ``value / ref`` is outside ``bounds`` (none otherwise)."""
+    r = value / ref
+    if r < bounds[0]:
+        return [f"{where}: {name} = {value:.3g} {unit} is near zero ({r:.3g} of the "
+                f"{ref_name} {ref:.3g})"]
+    if r > bounds[1]:
+        return [f"{where}: {name} = {value:.3g} {unit} is {r:.3g} times the {ref_name} "
+                f"{ref:.3g}"]
+    return []
+
+
+def _parameter_reasons(params: SpringParameters, window: MeasuredWindow,
+                       lim: CheckLimits) -> list[str]:
+    reasons = []
+    c_ref = _reference_damping(window)
+    for i in range(params.n_springs):
+        sec = f"section {i + 1}"
+        k1, k2 = params.k1[i], params.k2[i]
+        reasons += _ratio_reason(sec, "k1", "N·m/rad", k1, window.design.k1[i], lim.k1_ratio,
+                                 "design")
+        if k2 >= lim.k2_cap * k1 * (1.0 - lim.bound_tol):
+            reasons.append(f"{sec}: k2 = {k2:.3g} N·m/rad sits at its bound "
+                           f"{lim.k2_cap:g} k1")
+        reasons += _ratio_reason(sec, "c", "N·m·s/rad", params.c[i], c_ref[i], lim.c_ratio,
+                                 "reference")
+    return reasons
+
+
+def _misfit_reasons(reproduced: Reproduced, window: MeasuredWindow,
+                    lim: CheckLimits) -> list[str]:
+    reasons = []
+    measured = {"a": window.coverage.acceleration, "v": window.coverage.motion,
+                "x": window.coverage.motion}
+    names = {"a": "acceleration", "v": "velocity", "x": "displacement"}
+    for q, covered in measured.items():
+        meas = getattr(window, q)
+        rep = np.asarray(getattr(reproduced, q))
+        sigma = getattr(window.noise, q)
+        for lv in np.flatnonzero(covered):
+            m = meas[:, lv]
+            scale = float(np.sqrt(np.mean(m ** 2)))
+            if scale == 0:
+                continue
+            misfit = float(np.sqrt(np.mean((rep[:, lv] - m) ** 2))) / scale
+            noise = float(sigma[lv]) if np.isfinite(sigma[lv]) else 0.0
+            allowed = lim.misfit_rel + lim.misfit_noise * noise / scale
+            if not math.isfinite(misfit) or misfit > allowed:
+                reasons.append(f"level {lv + 1}: the reproduced {names[q]} departs from the "
+                               f"measured by {misfit:.0%} RMS (allowed {allowed:.0%})")
+    return reasons

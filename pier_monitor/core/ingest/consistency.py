@@ -1,0 +1,264 @@
+"""Checks of each sensor against the other sensors of its level.
+
+A level's accelerometers see one rigid motion, each along its own axes, so that any one
+horizontal channel is predicted by the others (least squares, leaving it out).  A channel
+that departs from that prediction
+
+* on single samples or short bursts, beyond ``glitch_threshold`` times the local spread and
+  ``glitch_rel`` of the prediction, has a glitch: those samples become missing (and are
+  interpolated when short);
+* over whole seconds, by more than ``disagree_rel`` of the signal and well beyond its noise
+  (a wrong gain, a reversed sign, a loose mount), disagrees: it is excluded over those
+  seconds, not the level.
+
+A displacement sensor has no such neighbours (two wires per level give the two horizontal
+components and nothing to spare), so each event compares it with its level's relative
+acceleration integrated twice in the band 0.2-10 Hz, where both are exact; a wire that
+disagrees is excluded for the event.
+
+Accelerometers whose level of motion is off by a unit factor from the others at the level
+are caught first (:func:`check_units`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from pier_monitor.core.ingest.clean import GLITCH, CleanSensor, block_median, fmt_recorded, runs_of
+from pier_monitor.core.ingest.levels import HorizontalChannel, availability_patterns, horizontal_channels
+from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_span
+
+__all__ = ["check_units", "check_accelerometers", "check_displacement", "leave_one_out"]
+
+_PASSES = 3  # bad channels per level and second that can be told apart
+_BAND_HZ = (0.2, 10.0)
+
+
+def _noise_si(ch: HorizontalChannel) -> float:
+    spec = ch.sensor.spec
+    return max(spec.noise_rms * spec.si_factor / abs(spec.gain), 1e-9)
+
+
+def check_units(cleaned: list[CleanSensor], report: IngestReport) -> None:
+    """Exclude accelerometers whose level of motion is off by a unit factor from the others
+    at the same level (e.g. recorded in g but declared m/s²).
+
+    The level of motion is a robust spread (1.4826 × the median absolute deviation of each
+    horizontal channel), so that a few wild samples (glitches, found later) do not make a
+    sensor look like one in the wrong unit."""
+    by_level: dict[int, list[tuple[CleanSensor, float]]] = {}
+    for cs in cleaned:
+        if cs.spec.kind != "acceleration":
+            continue
+        h = [j for j, a in enumerate(cs.spec.axes) if a != "z"]
+        sel = cs.usable[:, h].all(axis=1) & np.isfinite(cs.values[:, h]).all(axis=1)
+        if len(h) == 0 or sel.sum() < 10:
+            continue
+        vals = cs.values[sel][:, h]
+        mad = np.median(np.abs(vals - np.median(vals, axis=0)), axis=0)
+        spread = float(1.4826 * np.sqrt(np.mean(mad ** 2)))
+        by_level.setdefault(cs.spec.level, []).append((cs, spread))
+    for level, items in by_level.items():
+        if len(items) < 3:
+            continue
+        med = float(np.median([r for _, r in items]))
+        for cs, r in items:
+            ratio = r / med if med > 0 else 1.0
+            if ratio > 5.0 or ratio < 0.2:
+                cs.usable[:, :] = False
+                n = cs.values.shape[0]
+                report.add("implausible_units", cs.spec.sensor_id,
+                           f"horizontal motion {r:.4g} m/s² (robust spread) is {ratio:.3g}x the "
+                           f"median of the accelerometers at level {level} ({med:.4g} m/s²); "
+                           f"declared unit "
+                           f"{cs.spec.unit!r} looks wrong (or the sensor does not feel the motion); "
+                           "sensor excluded",
+                           cs.time_ns(0), cs.time_ns(n - 1), "excluded")
+
+
+def leave_one_out(m: np.ndarray, e: np.ndarray, avail: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Each channel predicted from the others of its sample, and its departure from it.
+
+    Parameters
+    ----------
+    m : ndarray, shape (T, C)
+        Measured components, SI.
+    e : ndarray, shape (C, 2)
+        Direction (X, Y) of each channel.
+    avail : ndarray of bool, shape (T, C)
+        Which channels take part at each sample.
+
+    Returns
+    -------
+    residual, prediction : ndarray, shape (T, C)
+        ``m - prediction`` and the least-squares prediction of each channel from the other
+        available ones; NaN where fewer than two other directions are available.
+    """
+    res = np.full(m.shape, np.nan)
+    pred = np.full(m.shape, np.nan)
+    for rows, cols in availability_patterns(avail):
+        if cols.size < 3:
+            continue
+        ep = e[cols]
+        if np.linalg.matrix_rank(ep, tol=1e-6) < 2:
+            continue
+        hat = ep @ np.linalg.inv(ep.T @ ep) @ ep.T
+        lever = 1.0 - np.diag(hat)
+        ok = lever > 1e-9  # without channel j the others still span both directions
+        whole = rows.size == m.shape[0]
+        mm = m[:, cols] if whole else m[rows][:, cols]
+        loo = (mm - mm @ hat.T)[:, ok] / lever[ok]
+        if whole:
+            res[:, cols[ok]] = loo
+            pred[:, cols[ok]] = mm[:, ok] - loo
+        else:
+            res[np.ix_(rows, cols[ok])] = loo
+            pred[np.ix_(rows, cols[ok])] = mm[:, ok] - loo
+    return res, pred
+
+
+def _per_sample(block_values: np.ndarray, starts: np.ndarray, n: int) -> np.ndarray:
+    """Block values (n_blocks, C), the largest of each block and its neighbours, per sample."""
+    v = np.where(np.isfinite(block_values), block_values, 0.0)
+    pad = np.zeros((1, v.shape[1]))
+    v = np.maximum.reduce([v, np.vstack([v[1:], pad]), np.vstack([pad, v[:-1]])])
+    return v[np.searchsorted(starts, np.arange(n), side="right") - 1]
+
+
+def check_accelerometers(cleaned: list[CleanSensor], starts: np.ndarray,
+                         settings: IngestSettings, report: IngestReport) -> None:
+    """Disagreeing seconds and glitches of every accelerometer channel, in place.
+
+    ``starts`` are the first samples of the seconds (:func:`~pier_monitor.core.ingest.clean.
+    block_starts`).  Levels with fewer than three horizontal channels are not checked.
+    """
+    levels = sorted({cs.spec.level for cs in cleaned if cs.spec.kind == "acceleration"})
+    for level in levels:
+        chans = horizontal_channels(cleaned, "acceleration", level)
+        if len(chans) < 3:
+            continue
+        m = np.stack([c.sensor.values[:, c.column] for c in chans], axis=1)
+        base = np.stack([c.sensor.usable[:, c.column] for c in chans], axis=1) & np.isfinite(m)
+        e = np.array([c.direction for c in chans])
+        sigma = np.array([_noise_si(c) for c in chans])
+        excluded = _disagreeing_seconds(m, e, base, sigma, starts, settings)
+        _exclude_seconds(chans, excluded, starts, level, report)
+        block_of = np.searchsorted(starts, np.arange(m.shape[0]), side="right") - 1
+        _mark_glitches(chans, m, e, base & ~excluded[0][block_of], sigma, starts, level,
+                       settings)
+
+
+def _disagreeing_seconds(m: np.ndarray, e: np.ndarray, base: np.ndarray, sigma: np.ndarray,
+                         starts: np.ndarray, settings: IngestSettings
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """``(excluded, share)``, both (n_blocks, C): the seconds in which a channel disagrees
+    with the others, and by what share of the signal; the worst channel of a second first."""
+    nb = starts.size
+    block_of = np.searchsorted(starts, np.arange(m.shape[0]), side="right") - 1
+    excluded = np.zeros((nb, m.shape[1]), dtype=bool)
+    share = np.zeros((nb, m.shape[1]))
+    for _ in range(_PASSES):
+        res, pred = leave_one_out(m, e, base & ~excluded[block_of])
+        med_r = block_median(np.abs(res), starts)
+        med_p = block_median(np.abs(pred), starts)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = med_r / med_p
+        # a median |residual| of 3 sigma is far beyond noise (noise alone gives ~0.8 sigma)
+        bad = (ratio > settings.disagree_rel) & (med_r > 3.0 * sigma) & ~excluded
+        bad &= np.isfinite(ratio)
+        if not bad.any():
+            break
+        worst = np.argmax(np.where(bad, ratio, -np.inf), axis=1)
+        rows = np.flatnonzero(bad.any(axis=1))
+        excluded[rows, worst[rows]] = True
+        share[rows, worst[rows]] = ratio[rows, worst[rows]]
+    return excluded, share
+
+
+def _exclude_seconds(chans: list[HorizontalChannel], excluded: tuple[np.ndarray, np.ndarray],
+                     starts: np.ndarray, level: int, report: IngestReport) -> None:
+    mask, share = excluded
+    n = chans[0].sensor.values.shape[0]
+    for c, ch in enumerate(chans):
+        for b0, b1 in runs_of(mask[:, c]):
+            s0 = int(starts[b0])
+            s1 = int(starts[b1 + 1]) - 1 if b1 + 1 < starts.size else n - 1
+            ch.sensor.usable[s0:s1 + 1, ch.column] = False
+            t0, t1 = ch.sensor.time_ns(s0), ch.sensor.time_ns(s1)
+            report.add("inconsistent", ch.name,
+                       f"disagrees with the other accelerometers at level {level} "
+                       f"{fmt_span(t0, t1)}: it departs from their prediction by "
+                       f"{np.median(share[b0:b1 + 1, c]):.0%} of the signal (more than "
+                       "its noise and gain allow); excluded there", t0, t1, "excluded")
+
+
+def _mark_glitches(chans: list[HorizontalChannel], m: np.ndarray, e: np.ndarray,
+                   base: np.ndarray, sigma: np.ndarray, starts: np.ndarray, level: int,
+                   settings: IngestSettings) -> None:
+    """Samples far off the other channels' prediction become missing (flag GLITCH)."""
+    glitch = np.zeros(m.shape, dtype=bool)
+    for _ in range(_PASSES):
+        res, pred = leave_one_out(m, e, base & ~glitch)
+        spread = _per_sample(1.4826 * block_median(np.abs(res), starts), starts, m.shape[0])
+        thr = (settings.glitch_threshold * np.maximum(spread, sigma)
+               + settings.glitch_rel * np.abs(pred))
+        with np.errstate(invalid="ignore"):
+            z = np.where(np.isfinite(res), np.abs(res) / thr, 0.0)
+        worst = np.argmax(z, axis=1)
+        rows = np.flatnonzero(z[np.arange(m.shape[0]), worst] > 1.0)
+        if rows.size == 0:
+            break
+        glitch[rows, worst[rows]] = True
+        for r, c in zip(rows, worst[rows]):  # what the finding will say
+            chans[c].sensor.details.setdefault(
+                (chans[c].column, int(r)),
+                f"departs by {fmt_recorded(chans[c].sensor.spec, chans[c].column, res[r, c])} "
+                f"from the other "
+                f"accelerometers at level {level}")
+    for c, ch in enumerate(chans):
+        cs = ch.sensor
+        for s0, s1 in runs_of(glitch[:, c]):
+            cs.values[s0:s1 + 1, ch.column] = np.nan
+            cs.flags[s0:s1 + 1, ch.column] = GLITCH
+            first = cs.details.get((ch.column, s0))
+            if first is None:  # a burst: describe it by its first marked sample
+                hits = [k for k in range(s0, s1 + 1) if (ch.column, k) in cs.details]
+                first = cs.details[(ch.column, hits[0])] if hits else "departs from its neighbours"
+                cs.details[(ch.column, s0)] = first
+
+
+def check_displacement(cleaned: list[CleanSensor], level: int, sl: slice,
+                       a_rel_xy: np.ndarray, rate_hz: float, settings: IngestSettings
+                       ) -> list[tuple[HorizontalChannel, float]]:
+    """Displacement channels of a level that disagree with its relative acceleration.
+
+    Over ``sl`` (an event and its context), each displacement channel usable there and the
+    level's relative acceleration ``a_rel_xy`` (T, 2) integrated twice are compared in the
+    band 0.2-10 Hz (tapered, detrended).  Returns ``[(channel, share), ...]`` for the channels
+    whose residual exceeds ``disagree_rel`` of the predicted motion and five times their
+    noise.
+    """
+    chans = [c for c in horizontal_channels(cleaned, "displacement", level)
+             if c.sensor.usable[sl, c.column].all()]
+    n = a_rel_xy.shape[0]
+    if not chans or n < 64:
+        return []
+    taper = signal.windows.tukey(n, 0.1)
+    f = np.fft.rfftfreq(n, 1.0 / rate_hz)
+    band = (f >= _BAND_HZ[0]) & (f <= min(_BAND_HZ[1], 0.4 * rate_hz))
+    w2 = (2.0 * np.pi * f[band]) ** 2
+    acc = np.fft.rfft(signal.detrend(a_rel_xy, axis=0) * taper[:, None], axis=0)[band]
+    disp_xy = -acc / w2[:, None]
+    out = []
+    for ch in chans:
+        x = ch.sensor.values[sl, ch.column]
+        meas = np.fft.rfft(signal.detrend(x) * taper)[band]
+        pred = disp_xy @ ch.direction
+        res_energy = float(np.sum(np.abs(meas - pred) ** 2))
+        share = np.sqrt(res_energy / max(float(np.sum(np.abs(pred) ** 2)), 1e-300))
+        res_rms = np.sqrt(2.0 * res_energy) / n  # Parseval, one-sided spectrum
+        if share > settings.disagree_rel and res_rms > 5.0 * _noise_si(ch):
+            out.append((ch, float(share)))
+    return out

@@ -1,0 +1,163 @@
+"""The two tasks of a fleet, as they run on a worker: ingest a bag, identify one event.
+
+Both are plain module-level functions of picklable arguments, so that a process pool and a
+Ray cluster run the same code.  Neither raises for bad data: a bag that cannot be read comes
+back as a :class:`BagWindows` with its ``error``, a training that fails is recorded by
+:func:`~pier_monitor.events.identify_window` as the event's ``failed.json``.
+
+:class:`KillOnce` is a fault for tests only: a fleet run is handed one explicitly (the
+command line never does), and it kills the process of the first attempt at one event.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from pier_monitor.bags import read_bag
+from pier_monitor.core.errors import PierMonitorError
+from pier_monitor.core.identify.damage import IdentificationResult
+from pier_monitor.core.ingest import IngestSettings, ingest_recording
+from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.events import identify_window
+from pier_monitor.pinn import PinnSettings, Progress, set_threads
+from pier_monitor.report.store import ResultsStore
+
+__all__ = ["BagWindows", "EventDone", "EventTask", "IngestTask", "KillOnce", "identify_event",
+           "ingest_bag"]
+
+
+@dataclass(frozen=True)
+class BagWindows:
+    """What ingesting one bag gave: its pier, its windows in time order, or why it failed."""
+
+    bag: Path
+    pier_id: str
+    windows: tuple[MeasuredWindow, ...]
+    error: str = ""
+
+
+@dataclass(frozen=True)
+class IngestTask:
+    """One bag to ingest, with the ingest settings."""
+
+    bag: Path
+    settings: IngestSettings | None = None
+
+
+def ingest_bag(task: IngestTask) -> BagWindows:
+    """Read a bag and cut its event windows (:func:`~pier_monitor.core.ingest.ingest_recording`).
+
+    A bag that cannot be read or ingested comes back with ``error`` naming what is wrong.
+    """
+    bag, settings = task.bag, task.settings
+    try:
+        recording = read_bag(bag)
+        if not recording.sensors:
+            return BagWindows(bag, recording.config.pier_id, (), "the bag holds no samples of "
+                              "any sensor of the configuration's map")
+        windows, _ = ingest_recording(recording, settings)
+    except PierMonitorError as err:
+        return BagWindows(bag, "", (), str(err))
+    return BagWindows(bag, recording.config.pier_id, tuple(windows))
+
+
+@dataclass(frozen=True)
+class KillOnce:
+    """Test fault: the first attempt at ``event_id`` exits its process mid-training.
+
+    At epoch ``epoch`` of that event, when ``marker`` does not exist yet, the worker creates
+    it and ends its process with ``os._exit(1)`` (no clean-up, as a kill would).  The marker
+    makes it happen once across processes and machines that share the path.
+    """
+
+    event_id: str
+    marker: Path
+    epoch: int = 2
+
+    def __call__(self, event_id: str, progress: Progress) -> None:
+        if event_id != self.event_id or progress.epoch < self.epoch:
+            return
+        try:
+            with self.marker.open("x"):
+                pass
+        except FileExistsError:
+            return
+        os._exit(1)
+
+
+@dataclass(frozen=True)
+class EventTask:
+    """One event's identification, as shipped to a worker.
+
+    Attributes
+    ----------
+    window : MeasuredWindow
+        The event window.
+    settings : PinnSettings
+        Training settings (the same for every event of a fleet).
+    results_root : Path
+        The results store's root (a path every worker sees).
+    figures : bool
+        Also draw the report figures.
+    threads : int
+        CPU threads of the training in the worker.
+    fault : KillOnce, optional
+        Tests only.
+    """
+
+    window: MeasuredWindow
+    settings: PinnSettings
+    results_root: Path
+    figures: bool = True
+    threads: int = 1
+    fault: KillOnce | None = None
+
+
+@dataclass(frozen=True)
+class EventDone:
+    """What an event's task gave back.
+
+    Attributes
+    ----------
+    result : IdentificationResult
+        The saved result, or the failure record (``success`` false).
+    worker : str
+        ``host:pid`` of the process that ran it.
+    wall_s : float
+        Wall time of the task, s.
+    reused : bool
+        The event was done already when the task started (a retry of a task whose first
+        attempt wrote its result): nothing was trained again.
+    """
+
+    result: IdentificationResult
+    worker: str
+    wall_s: float
+    reused: bool = False
+
+
+def identify_event(task: EventTask) -> EventDone:
+    """Identify one event into the store (:func:`~pier_monitor.events.identify_window`).
+
+    An event that is done already (its ``result.json`` or ``failed.json`` exists: a retried
+    task whose first attempt finished) is not trained again; its stored outcome is returned.
+    """
+    started = time.perf_counter()
+    worker = f"{platform.node()}:{os.getpid()}"
+    store = ResultsStore(task.results_root)
+    event_id = task.window.event_id
+    done = store.outcome(event_id)
+    if done is not None:
+        return EventDone(done, worker, time.perf_counter() - started, reused=True)
+    set_threads(task.threads)
+    progress = None
+    if task.fault is not None:
+        fault = task.fault
+        progress = (lambda p: fault(event_id, p))  # noqa: E731 - binds the event
+    outcome = identify_window(task.window, task.settings, store, progress=progress,
+                              figures=task.figures)
+    return EventDone(outcome.result, worker, time.perf_counter() - started)

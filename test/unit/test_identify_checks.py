@@ -1,0 +1,107 @@
+"""Self-check of identifications: believable results pass, results from bad data do not."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.identify.checks import CheckLimits, check_identification
+from pier_monitor.core.identify.equation_error import fit_equation_error
+from pier_monitor.core.ingest import ingest_recording
+from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
+from pier_monitor.core.model.config import SpringParameters, load_config
+from pier_monitor.core.model.solver import simulate
+from pier_monitor.core.resources import find_config_file
+from pier_monitor.core.synthetic.shaking_table import edefense_scenario, generate_recording
+
+
+@pytest.fixture(scope="module")
+def windows() -> list[MeasuredWindow]:
+    """The two windows of a short synthetic shaking-table test (run 2 yields sections 1-2)."""
+    config = load_config(find_config_file("edefense_like.yaml"))
+    scenario = edefense_scenario(record_s=20.0, lead_s=12.0, gap_s=18.0, tail_s=18.0)
+    windows, _ = ingest_recording(generate_recording(config, scenario, seed=0).recording)
+    assert len(windows) == 2
+    return windows
+
+
+def identified(window: MeasuredWindow) -> tuple[SpringParameters, Reproduced]:
+    """A real identification: the equation-error fit, and the responses it reproduces."""
+    fit = fit_equation_error(window.geometry, window.x, window.v, window.a, window.ag,
+                             window.design)
+    r = simulate(window.geometry, fit.params, window.ag, window.dt)
+    n = window.t.size  # the solver may stop one sample short of the window's end
+    full = {k: np.pad(getattr(r, k), ((0, n - getattr(r, k).shape[0]), (0, 0)), mode="edge")
+            for k in ("a", "v", "x", "theta", "moment")}
+    return fit.params, Reproduced(t=window.t, **full)
+
+
+@pytest.mark.parametrize("run", [0, 1])
+def test_identification_of_clean_data_has_no_reasons(windows, run):
+    params, reproduced = identified(windows[run])
+    assert check_identification(params, reproduced, windows[run]) == []
+
+
+def test_an_unrepaired_wire_glitch_makes_the_identification_unreliable(windows):
+    w = windows[0]
+    x, v = np.array(w.x), np.array(w.v)
+    k = w.t.size // 3
+    x[k, 2] += 0.5  # +500 mm on one sample of level 3, and what the fusion makes of it
+    v[k - 1, 2] += 0.5 / w.dt
+    v[k, 2] -= 0.5 / w.dt
+    bad = dataclasses.replace(w, x=x, v=v)
+    params, reproduced = identified(bad)
+    reasons = check_identification(params, reproduced, bad)
+    assert any(r.startswith("section 3: c = ") and "is near zero" in r for r in reasons), reasons
+    assert any(r.startswith("level 3: the reproduced displacement departs") for r in reasons)
+
+
+def test_a_displacement_gain_error_makes_the_identification_unreliable(windows):
+    w = windows[1]
+    x = np.array(w.x)
+    x[:, 1] *= 1.5
+    bad = dataclasses.replace(w, x=x)
+    params, reproduced = identified(bad)
+    reasons = check_identification(params, reproduced, bad)
+    assert any(r.startswith("level 2: the reproduced displacement departs") for r in reasons)
+
+
+def test_a_reversed_acceleration_makes_the_identification_unreliable(windows):
+    w = windows[0]
+    a = np.array(w.a)
+    a[:, 0] *= -1.0
+    bad = dataclasses.replace(w, a=a)
+    params, reproduced = identified(bad)
+    reasons = check_identification(params, reproduced, bad)
+    assert [r for r in reasons if r.startswith("level 1: the reproduced acceleration")], reasons
+
+
+def test_parameters_at_bounds_or_implausible_are_named(windows):
+    w = windows[0]
+    params, reproduced = identified(w)
+    d = w.design
+    odd = SpringParameters(k1=d.k1 * np.array([1e-3, 1.0, 50.0, 1.0]),
+                           k2=d.k1 * np.array([1e-4, 0.5, 0.1, 0.1]),
+                           fy=d.fy * np.array([1.0, 1.0, 1.0, 1e-3]),
+                           c=d.c * np.array([1.0, 1e-16, 1.0, 1e3]))
+    reasons = check_identification(odd, reproduced, w)
+    text = "\n".join(reasons)
+    assert "section 1: k1 = " in text and "is near zero (0.001 of the design" in text
+    assert "section 2: k2 = " in text and "sits at its bound 0.5 k1" in text
+    assert "section 2: c = 1.2e-09 N·m·s/rad is near zero" in text
+    assert "section 3: k1 = " in text and "is 50 times the design" in text
+    assert "section 4: c = " in text and "is 1e+03 times the reference" in text
+    assert "section 4: ductility factor" in text and "is implausible (above 20)" in text
+    assert check_identification(odd, reproduced, w, CheckLimits(
+        k1_ratio=(1e-4, 100.0), c_ratio=(1e-20, 1e4), k2_cap=1.0, max_df=1e9)) == []
+
+
+def test_mismatched_shapes_are_an_input_data_error(windows):
+    w = windows[0]
+    params, reproduced = identified(w)
+    short = dataclasses.replace(reproduced, x=reproduced.x[:-1])
+    with pytest.raises(InputDataError, match=r"reproduced x: expected shape \(\d+, 4\)"):
+        check_identification(params, short, w)
