@@ -115,13 +115,7 @@ def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
     assert [o.status for o in stream.report.outcomes] == ["ingested", "ingested"]
 
 
-def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested):
-    rec = synthetic.recording
-    r = rec.sensors["l2_wire_n"]
-    keep = (r.time_ns < synthetic.truth.runs[1].window_start_ns + 5 * 10**9) | (
-        r.time_ns >= synthetic.truth.runs[1].window_start_ns + 7 * 10**9)  # 2 s gap in run 2
-    bad = with_sensor(rec, "l2_wire_n", time_ns=r.time_ns[keep], data=r.data[keep],
-                      sample_index=r.sample_index[keep])
+def _stream(rec, bad):
     stream = StreamIngest(rec.config)
     for t_ns, config in rec.config_updates:
         stream.update_config(config, t_ns)
@@ -131,15 +125,42 @@ def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested
             sel = slice(np.searchsorted(s.time_ns, rec.start_ns + b0 * 5_000_000),
                         np.searchsorted(s.time_ns, rec.start_ns + (b0 + 400) * 5_000_000))
             got += stream.push(sid, s.time_ns[sel], s.data[sel], s.sample_index[sel])
-    got += stream.flush()
+    return got + stream.flush(), stream
+
+
+def _gap_in_run2(synthetic, rec, sensor_ids):
+    """``rec`` with 2 s of ``sensor_ids`` missing in run 2."""
+    start = synthetic.truth.runs[1].window_start_ns
+    for sid in sensor_ids:
+        r = rec.sensors[sid]
+        keep = (r.time_ns < start + 5 * 10**9) | (r.time_ns >= start + 7 * 10**9)
+        rec = with_sensor(rec, sid, time_ns=r.time_ns[keep], data=r.data[keep],
+                          sample_index=r.sample_index[keep])
+    return rec
+
+
+def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested):
+    rec = synthetic.recording
+    foundation = [s.sensor_id for s in rec.config.sensors_at(0, "acceleration")]
+    got, stream = _stream(rec, _gap_in_run2(synthetic, rec, foundation))
     outcomes = stream.report.outcomes
     assert [o.status for o in outcomes] == ["ingested", "failed"]
     assert got == [outcomes[0].window]
     np.testing.assert_array_equal(got[0].x, ingested[0][0].x)
-    assert outcomes[1].failure.startswith("level 2: the usable displacement channels "
-                                          "(l2_wire_w.x) all point one way")
-    assert "l2_wire_n: gap_excluded (400 missing samples (2.00 s)" in outcomes[1].failure
+    assert outcomes[1].failure.startswith("level 0: no usable acceleration sensor")
     assert "gap_excluded" in [f.code for f in stream.report.findings]
+
+
+def test_stream_carries_on_with_a_level_whose_wires_failed(synthetic, ingested):
+    rec = synthetic.recording
+    got, stream = _stream(rec, _gap_in_run2(synthetic, rec, ["l2_wire_n"]))
+    outcomes = stream.report.outcomes
+    assert [o.status for o in outcomes] == ["ingested", "ingested"]
+    assert got[0] == ingested[0][0]
+    # run 2: level 2 keeps one wire, which cannot give both directions: unmeasured there
+    assert got[1].coverage.displacement.tolist() == [True, False, True, True]
+    np.testing.assert_array_equal(got[1].a, ingested[0][1].a)
+    assert "unmeasured_level" in [f.code for f in stream.report.findings]
 
 
 def test_stream_accounts_for_gaps_duplicates_and_samples_without_index(synthetic):
