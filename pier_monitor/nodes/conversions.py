@@ -280,13 +280,56 @@ def _fmt(value: float) -> str:
     return "nan" if value is None or not math.isfinite(value) else f"{value:.6g}"
 
 
+def _interval(lo: float, hi: float) -> str:
+    return f"[{_fmt(lo)}, {_fmt(hi)}]"
+
+
+def _has_uncertainty(section: dict[str, Any]) -> bool:
+    return math.isfinite(section["p_yielded"])
+
+
+def _section_message(fields: dict[str, Any], s: dict[str, Any], state: str) -> str:
+    if not fields["success"]:
+        return f"no diagnosis: {fields['message']}"[:500]
+    if not _has_uncertainty(s):
+        return (f"{state}: DF {_fmt(s['ductility_factor'])}, k1 change "
+                f"{_fmt(s['k1_change_pct'])} % (event {fields['event_id']})")
+    p_state = s[f"p_{state}"] if state in ("intact", "suspicious", "damaged") else math.nan
+    text = (f"{state} (P {p_state:.2f}): DF {_fmt(s['ductility_factor'])} "
+            f"{_interval(s['ductility_factor_lo'], s['ductility_factor_hi'])}, k1 change "
+            f"{_fmt(s['k1_change_pct'])} % "
+            f"{_interval(s['k1_change_lo_pct'], s['k1_change_hi_pct'])} "
+            f"(event {fields['event_id']}, {fields['members']} members)")
+    if s["reasons"]:
+        text += "; " + "; ".join(s["reasons"])
+    return text[:500]
+
+
+def _uncertainty_values(s: dict[str, Any]) -> list[tuple[str, str]]:
+    """Key-values of a section's uncertainty (none for a single identification)."""
+    if not _has_uncertainty(s):
+        return []
+    return [("k1_std", _fmt(s["k1_std"])), ("k1_90pct", _interval(s["k1_lo"], s["k1_hi"])),
+            ("k1_change_90pct", _interval(s["k1_change_lo_pct"], s["k1_change_hi_pct"])),
+            ("k1_change_scatter_pct", _fmt(s["k1_change_scatter_pct"])),
+            ("ductility_factor_90pct",
+             _interval(s["ductility_factor_lo"], s["ductility_factor_hi"])),
+            ("p_yielded", _fmt(s["p_yielded"])), ("p_intact", _fmt(s["p_intact"])),
+            ("p_suspicious", _fmt(s["p_suspicious"])), ("p_damaged", _fmt(s["p_damaged"])),
+            ("reasons", "; ".join(s["reasons"]))]
+
+
 def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray:
     """``/diagnostics`` of a damage state: one status per section, then the identifier's.
 
     A section is OK / WARN / ERROR when intact / suspicious / damaged, STALE when there is no
-    diagnosis; its values are k1, its change from the baseline, DF, k2, fy and c.  The
+    diagnosis; its values are k1, its change from the baseline, DF, k2, fy and c.  A section
+    identified by an ensemble also has ``k1_std``, the 90 % intervals ``k1_90pct``,
+    ``k1_change_90pct`` and ``ductility_factor_90pct`` (``[lo, hi]``),
+    ``k1_change_scatter_pct``, ``p_yielded``, ``p_intact``, ``p_suspicious``, ``p_damaged``
+    and ``reasons`` (``; ``-separated, empty when the state is the most probable one).  The
     identifier's status is OK, or ERROR when the identification failed, with the event,
-    epochs and device.
+    epochs, device and number of members.
 
     Parameters
     ----------
@@ -304,11 +347,7 @@ def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray
         st.name = f"pier_monitor/{pier}/section_{s['index'] + 1}"
         st.hardware_id = pier
         state = DamageState(s["state"]).name.lower()
-        if fields["success"]:
-            st.message = (f"{state}: DF {_fmt(s['ductility_factor'])}, k1 change "
-                          f"{_fmt(s['k1_change_pct'])} % (event {fields['event_id']})")
-        else:
-            st.message = f"no diagnosis: {fields['message']}"[:500]
+        st.message = _section_message(fields, s, state)
         st.values = [KeyValue(key=k, value=v) for k, v in (
             ("event_id", fields["event_id"]),
             ("state", state),
@@ -317,7 +356,7 @@ def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray
             ("ductility_factor", _fmt(s["ductility_factor"])),
             ("k2", _fmt(s["k2"]) if s["k2_identifiable"] else "not identifiable"),
             ("fy", _fmt(s["fy"]) if s["fy_identifiable"] else "not identifiable"),
-            ("c", _fmt(s["c"])))]
+            ("c", _fmt(s["c"])), *_uncertainty_values(s))]
         arr.status.append(st)
     st = DiagnosticStatus()
     st.name = f"pier_monitor/{pier}/identifier"
@@ -326,6 +365,7 @@ def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray
     st.message = fields["message"][:500] or "ok"
     st.values = [KeyValue(key="event_id", value=fields["event_id"]),
                  KeyValue(key="epochs", value=str(fields["epochs"])),
-                 KeyValue(key="device", value=fields["device"])]
+                 KeyValue(key="device", value=fields["device"]),
+                 KeyValue(key="members", value=str(fields["members"]))]
     arr.status.append(st)
     return arr
