@@ -289,3 +289,14 @@ def test_a_result_file_written_before_uncertainty_existed_still_loads(tmp_path: 
     (tmp_path / "result.json").write_text(json.dumps(doc))
     loaded = IdentificationResult.load_json(tmp_path / "result.json")
     assert loaded == single and loaded.members == 1
+
+
+def test_a_malformed_uncertainty_in_result_json_is_a_report_error(tmp_path: Path) -> None:
+    from pier_monitor.core.errors import ReportError
+    from pier_monitor.report.results import load_result
+
+    doc = _one_section(normal_members(1.3, 0.05), ALL).to_dict()
+    doc["sections"][0]["uncertainty"]["p_state"] = [0.5, 0.5]
+    (tmp_path / "result.json").write_text(json.dumps(doc))
+    with pytest.raises(ReportError, match="result.json: cannot read"):
+        load_result(tmp_path)

@@ -147,11 +147,10 @@ class SectionUncertainty:
     def from_dict(cls, d: dict[str, Any]) -> SectionUncertainty:
         """Inverse of :meth:`to_dict`."""
         spreads = {k: Spread(**d[k]) for k in (*PARAMETER_NAMES, "ductility_factor")}
-        p = tuple(float(v) for v in d["p_state"])
-        if len(p) != 3:
-            raise InputDataError(f"p_state: expected 3 probabilities, got {len(p)}")
-        return cls(**spreads, p_yielded=float(d["p_yielded"]), p_state=(p[0], p[1], p[2]),
-                   members=int(d["members"]))
+        # a malformed file raises KeyError / TypeError / ValueError, as for the other fields
+        p_intact, p_suspicious, p_damaged = (float(v) for v in d["p_state"])
+        return cls(**spreads, p_yielded=float(d["p_yielded"]),
+                   p_state=(p_intact, p_suspicious, p_damaged), members=int(d["members"]))
 
 
 def _check_members(params: np.ndarray, ductility: np.ndarray, yielded: np.ndarray
