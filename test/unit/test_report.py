@@ -20,6 +20,7 @@ from pier_monitor.core.identify.damage import IdentificationResult, SectionResul
 from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
                                                     summarize_members)
 from pier_monitor.core.errors import ReportError
+from pier_monitor.report.results import DAMAGE_STATE_TYPE
 from pier_monitor.report import (FIGURE_DPI, PROFILE_FIGSIZE_IN, compare_results,
                                  damage_state_fields, damage_state_topic, load_result,
                                  write_results)
@@ -319,7 +320,8 @@ def test_ensemble_damage_state_decodes_from_the_mcap_with_only_the_msg_text(
     result = written.result
     with written.paths.damage_state_mcap.open("rb") as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-        ((schema, _, _, decoded),) = list(reader.iter_decoded_messages())
+        ((schema, _, _, decoded),) = [m for m in reader.iter_decoded_messages()
+                                      if m[0].name == DAMAGE_STATE_TYPE]
     assert b"float64 k1_lo" in schema.data and b"string[] reasons" in schema.data
     assert decoded.members == ENSEMBLE_MEMBERS
     assert (decoded.p_overall_intact, decoded.p_overall_suspicious,
