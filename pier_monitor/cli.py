@@ -38,6 +38,7 @@ from pier_monitor.progress import TrainingProgress
 from pier_monitor.report._common import format_df
 from pier_monitor.report.compare import write_comparison
 from pier_monitor.report.results import load_result
+from pier_monitor.report.tables import uncertainty_table
 
 __all__ = ["main", "build_parser"]
 
@@ -203,7 +204,7 @@ def _identify(bag: Path, out: Path, args: argparse.Namespace,
 
 
 def _print_outcome(outcome: BagOutcome) -> None:
-    """Per-event tables of the identified sections."""
+    """Per-event tables of the identified sections (and their uncertainty, for an ensemble)."""
     if not outcome.events:
         print(f"{outcome.bag}: no mainshock found; nothing to identify")
     for ev in outcome.events:
@@ -220,6 +221,9 @@ def _print_outcome(outcome: BagOutcome) -> None:
             print(f"{sec.index + 1:>8} {sec.z_bottom_m:>5.1f}-{sec.z_top_m:<5.1f} {sec.k1:>13.4g} "
                   f"{k2:>13} {fy:>10} {sec.c:>14.4g} {format_df(sec.ductility_factor, sec.yielded):>7} "
                   f"{sec.state:>10} {ch:>10}")
+        table = uncertainty_table(r)
+        if table:
+            print(table)
         print(f"results: {ev.out_dir}")
 
 

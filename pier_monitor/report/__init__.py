@@ -18,6 +18,7 @@ from .results import (DAMAGE_STATE_TYPE, RESULT_JSON, ResultsPaths, WrittenResul
                       damage_state_fields, damage_state_message, damage_state_topic, load_result,
                       prepare_result, write_damage_state_mcap, write_results)
 from .store import ResultsStore
+from .tables import uncertainty_table
 
 __all__ = [
     "COMPARE_JSON",
@@ -44,6 +45,7 @@ __all__ = [
     "plot_responses",
     "plot_training",
     "prepare_result",
+    "uncertainty_table",
     "write_comparison",
     "write_damage_state_mcap",
     "write_results",

@@ -13,6 +13,7 @@ from pier_monitor.core.errors import ReportError
 from pier_monitor.core.fileio import atomic_path
 
 __all__ = ["STATE_COLORS", "check_same_pier", "engineering_scale", "ensure_dir", "format_df",
+           "format_interval",
            "atomic_write_text"]
 
 #: Tolerance on section boundaries when two results are said to be of the same pier, m.
@@ -60,6 +61,13 @@ def format_df(df: float, yielded: bool) -> str:
     if not np.isfinite(df):
         return "n/a"
     return f"{df:.2f}" if yielded else f"<={df:.2f}"
+
+
+def format_interval(lo: float | None, hi: float | None, fmt: str = ".2f") -> str:
+    """A 90 % interval as ``[lo, hi]`` in the format ``fmt``; ``n/a`` when not known."""
+    if lo is None or hi is None or not (np.isfinite(lo) and np.isfinite(hi)):
+        return "n/a"
+    return f"[{lo:{fmt}}, {hi:{fmt}}]"
 
 
 def check_same_pier(results: Sequence[IdentificationResult],

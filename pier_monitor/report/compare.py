@@ -4,6 +4,13 @@
 the state before and after, and a plain-language line such as
 ``section 1 (0.0-2.0 m): k1 -15.2 %, DF 1.65 -> 4.44, suspicious -> damaged``.  A spring that
 never yielded has only an upper bound of its DF (about 1): it is written ``<=1.00``.
+
+For ensemble identifications the change has its 90 % interval, and the state after is
+decided with B's baseline being A (:meth:`IdentificationResult.with_baseline`): a ``k1`` loss
+beyond the two identifications' scatter makes the section at least suspicious, with the
+reason at the end of its line, e.g. ``section 2 (2.0-4.0 m): k1 -14.1 % [-16.0, -12.2],
+DF <=1.00 -> <=1.00, intact -> suspicious (worse): k1 -14.1 % [-16.0, -12.2] against event
+run1, beyond the identification scatter (1.1 %): cracking``.
 :func:`write_comparison` writes the comparison as JSON and the two events' profiles as one
 figure (the paper's Fig. 18).
 """
@@ -15,10 +22,11 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from pier_monitor.core.identify.damage import DamageState, IdentificationResult, k1_change_pct
+from pier_monitor.core.identify.damage import DamageState, IdentificationResult, SectionResult
 from pier_monitor.core.errors import ReportError
 
-from ._common import atomic_write_text, check_same_pier, engineering_scale, ensure_dir, format_df
+from ._common import (atomic_write_text, check_same_pier, engineering_scale, ensure_dir,
+                      format_df, format_interval)
 from .figures import plot_profile
 
 __all__ = [
@@ -41,7 +49,11 @@ class SectionChange:
     """Change of one section between two results (``before`` = A, ``after`` = B), SI units.
 
     ``df_*_bound`` is true where that spring did not yield: the DF is then only an upper
-    bound.  ``k1_change_pct = 100 (k1_after / k1_before − 1)``.
+    bound.  ``k1_change_pct = 100 (k1_after / k1_before − 1)``; for ensemble identifications
+    ``k1_change_lo_pct``, ``k1_change_hi_pct`` are its 90 % interval and
+    ``k1_change_scatter_pct`` the identifications' scatter (None otherwise).  ``state_after``
+    is the worse of B's state and the state B gets against A as baseline; ``reasons`` explain
+    a promoted state.
     """
 
     index: int
@@ -56,6 +68,10 @@ class SectionChange:
     df_after_bound: bool
     state_before: str
     state_after: str
+    k1_change_lo_pct: float | None = None
+    k1_change_hi_pct: float | None = None
+    k1_change_scatter_pct: float | None = None
+    reasons: tuple[str, ...] = ()
 
     @property
     def number(self) -> int:
@@ -74,16 +90,24 @@ class SectionChange:
 
         E.g. ``section 1 (0.0-2.0 m): k1 -15.2 %, DF 1.65 -> 4.44, suspicious -> damaged``;
         ``<=`` before a DF marks the upper bound of a spring that did not yield, and
-        ``(worse)`` ends the line when the state got worse.
+        ``(worse)`` ends the line when the state got worse.  With uncertainty the ``k1``
+        change has its 90 % interval, and the reasons of a promoted state follow a colon.
         """
         dfa = format_df(self.df_before, not self.df_before_bound)
         dfb = format_df(self.df_after, not self.df_after_bound)
         line = (f"section {self.number} ({_span(self.z_bottom_m, self.z_top_m)}): "
-                f"k1 {self.k1_change_pct:+.1f} %, DF {dfa} -> {dfb}, "
+                f"k1 {self.k1_change_pct:+.1f} %{self._interval()}, DF {dfa} -> {dfb}, "
                 f"{self.state_before} -> {self.state_after}")
         if self.worsened:
             line += " (worse)"
+        if self.reasons:
+            line += ": " + "; ".join(self.reasons)
         return line
+
+    def _interval(self) -> str:
+        if self.k1_change_lo_pct is None:
+            return ""
+        return " " + format_interval(self.k1_change_lo_pct, self.k1_change_hi_pct, "+.1f")
 
 
 @dataclass(frozen=True)
@@ -108,7 +132,8 @@ class Comparison:
         worst = self.ranked_by_k1_change()[0]
         if worst.k1_change_pct < 0:
             line += (f"; largest k1 loss in section {worst.number} "
-                     f"({_span(worst.z_bottom_m, worst.z_top_m)}, {worst.k1_change_pct:+.1f} %)")
+                     f"({_span(worst.z_bottom_m, worst.z_top_m)}, {worst.k1_change_pct:+.1f} %"
+                     f"{worst._interval()})")
         else:
             line += "; k1 did not decrease in any section"
         return line
@@ -122,18 +147,26 @@ class Comparison:
         return lines
 
     def table(self) -> str:
-        """A fixed-width table of the sections (k1 in a prefixed N·m/rad)."""
+        """A fixed-width table of the sections (k1 in a prefixed N·m/rad).
+
+        With uncertainty a column gives the 90 % interval of the ``k1`` change.
+        """
         k1 = [v for s in self.sections for v in (s.k1_before, s.k1_after)]
         fac, unit = engineering_scale(k1, "N*m/rad")
+        spread = any(s.k1_change_lo_pct is not None for s in self.sections)
         head = (f"{'section':>7} {'z (m)':>11} {'k1 A (' + unit + ')':>18} "
-                f"{'k1 B (' + unit + ')':>18} {'k1 change %':>11} {'DF A':>7} {'DF B':>7}  "
-                f"{'state A':<10} {'state B':<10}")
+                f"{'k1 B (' + unit + ')':>18} {'k1 change %':>11} "
+                + (f"{'90 % interval':>16} " if spread else "")
+                + f"{'DF A':>7} {'DF B':>7}  {'state A':<10} {'state B':<10}")
         rows = [head, "-" * len(head)]
         for s in self.sections:
+            interval = (f"{format_interval(s.k1_change_lo_pct, s.k1_change_hi_pct, '+.1f'):>16} "
+                        if spread else "")
             rows.append(
                 f"{s.number:>7} {_span(s.z_bottom_m, s.z_top_m)[:-2]:>11} "
                 f"{s.k1_before / fac:>18.3f} {s.k1_after / fac:>18.3f} "
-                f"{s.k1_change_pct:>+11.1f} {format_df(s.df_before, not s.df_before_bound):>7} "
+                f"{s.k1_change_pct:>+11.1f} {interval}"
+                f"{format_df(s.df_before, not s.df_before_bound):>7} "
                 f"{format_df(s.df_after, not s.df_after_bound):>7}  "
                 f"{s.state_before:<10} {s.state_after:<10}")
         return "\n".join([f"A = {self.event_before}, B = {self.event_after} "
@@ -142,7 +175,8 @@ class Comparison:
     def to_dict(self) -> dict[str, Any]:
         """Plain form for JSON, with the summary lines."""
         d = asdict(self)
-        d["sections"] = [dict(asdict(s), summary=s.summary()) for s in self.sections]
+        d["sections"] = [dict(asdict(s), reasons=list(s.reasons), summary=s.summary())
+                         for s in self.sections]
         d["summary"] = self.summary_lines()
         return d
 
@@ -170,17 +204,35 @@ def compare_results(a: IdentificationResult, b: IdentificationResult) -> Compari
             raise ReportError(f"result {name} (pier {r.pier_id!r}, event {r.event_id!r}) is a "
                               f"failed identification ({r.message or 'no message'}); its "
                               "sections are not to be trusted")
-    change = k1_change_pct(b.params.k1, a.params.k1)
-    sections = tuple(
-        SectionChange(index=sa.index, z_bottom_m=sa.z_bottom_m, z_top_m=sa.z_top_m,
-                      k1_before=sa.k1, k1_after=sb.k1, k1_change_pct=float(change[i]),
-                      df_before=sa.ductility_factor, df_after=sb.ductility_factor,
-                      df_before_bound=not sa.yielded, df_after_bound=not sb.yielded,
-                      state_before=sa.state, state_after=sb.state)
-        for i, (sa, sb) in enumerate(zip(a.sections, b.sections)))
+    against_a = b.with_baseline(a)
+    sections = tuple(_section_change(sa, sb, sr)
+                     for sa, sb, sr in zip(a.sections, b.sections, against_a.sections))
     return Comparison(pier_id=a.pier_id, event_before=a.event_id, event_after=b.event_id,
-                      overall_before=a.overall_state, overall_after=b.overall_state,
+                      overall_before=a.overall_state,
+                      overall_after=_worse(b.overall_state, against_a.overall_state),
                       sections=sections)
+
+
+def _worse(state: str, other: str) -> str:
+    """The worse of two known states (``state`` when either is unknown)."""
+    s, o = DamageState[state.upper()], DamageState[other.upper()]
+    return state if DamageState.UNKNOWN in (s, o) or s >= o else other
+
+
+def _section_change(sa: SectionResult, sb: SectionResult, against_a: SectionResult
+                    ) -> SectionChange:
+    """Section ``sb`` of B against ``sa`` of A; ``against_a`` is ``sb`` with A as baseline."""
+    state = _worse(sb.state, against_a.state)
+    # B's own reasons (e.g. against its stored baseline) stay; those against A come first
+    reasons = against_a.reasons + tuple(r for r in sb.reasons if r not in against_a.reasons)
+    return SectionChange(
+        index=sa.index, z_bottom_m=sa.z_bottom_m, z_top_m=sa.z_top_m, k1_before=sa.k1,
+        k1_after=sb.k1, k1_change_pct=float(against_a.k1_change_pct),
+        df_before=sa.ductility_factor, df_after=sb.ductility_factor,
+        df_before_bound=not sa.yielded, df_after_bound=not sb.yielded,
+        state_before=sa.state, state_after=state,
+        k1_change_lo_pct=against_a.k1_change_lo_pct, k1_change_hi_pct=against_a.k1_change_hi_pct,
+        k1_change_scatter_pct=against_a.k1_change_scatter_pct, reasons=reasons)
 
 
 def write_comparison(a: IdentificationResult, b: IdentificationResult, out_dir: str | Path, *,

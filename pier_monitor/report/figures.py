@@ -8,11 +8,13 @@ its title and writes its units on every axis (SI, with a prefix where it reads b
 GN·m/rad, MN·m, mrad, mm).
 
 * :func:`plot_profile` — the paper's Fig. 18: ``k1`` and the ductility factor along the
-  height, one step line per event, the DF panel shaded intact / suspicious / damaged.
+  height, one step line per event, the DF panel shaded intact / suspicious / damaged; error
+  bars give the 90 % interval of an ensemble identification.
 * :func:`plot_hysteresis` — reproduced moment–rotation loops of every spring with the
-  identified bilinear skeleton (paper Fig. 9).
+  identified bilinear skeleton (paper Fig. 9), over the loops of the ensemble's members when
+  they are given.
 * :func:`plot_responses` — measured against reproduced relative displacement and
-  acceleration of every level over time.
+  acceleration of every level over time, with the members' 90 % band when given.
 * :func:`plot_training` — loss terms and parameters per epoch (paper Figs. 10–11).
 """
 
@@ -32,11 +34,13 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from pier_monitor.core.errors import ReportError
-from pier_monitor.core.identify.damage import DAMAGED_DF, SUSPICIOUS_DF, IdentificationResult
+from pier_monitor.core.identify.damage import (DAMAGED_DF, SUSPICIOUS_DF, IdentificationResult,
+                                               SectionResult)
+from pier_monitor.core.identify.uncertainty import MemberResponses
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 
-from ._common import STATE_COLORS, check_same_pier, engineering_scale, format_df
+from ._common import STATE_COLORS, check_same_pier, engineering_scale, format_df, format_interval
 
 
 __all__ = [
@@ -67,6 +71,7 @@ _STYLE = {
     "axes.formatter.useoffset": False,
 }
 
+_BAND_ALPHA = 0.25
 _EVENT_COLORS = ("#1f4e9c", "#222222", "#7b3294", "#8c510a", "#01665e")
 _EVENT_MARKERS = ("o", "s", "^", "D", "v")
 _BAND_COLORS = STATE_COLORS
@@ -135,6 +140,41 @@ def _check_run(run: RunLike) -> tuple[IdentificationResult, Reproduced]:
     return res, rep
 
 
+def check_members_match(members: MemberResponses | None, rep: Reproduced) -> None:
+    """Raise :class:`ReportError` unless the members' histories have ``rep``'s (T, N)."""
+    if members is None:
+        return
+    want = np.asarray(rep.theta).shape
+    if members.theta.shape[1:] != want:
+        raise ReportError(f"member histories: expected shape (M, {want[0]}, {want[1]}) like the "
+                          f"reproduced responses, got {members.theta.shape}")
+
+
+def _interval_errors(results: Sequence[IdentificationResult], name: str, scale: np.ndarray
+                     ) -> np.ndarray | None:
+    """Error-bar lengths (2, R, N) of a quantity's 90 % interval; None without uncertainty.
+
+    ``scale`` (R, N) divides the values (units or a baseline); NaN where a section has no
+    interval, so that no bar is drawn there.
+    """
+    if not any(s.uncertainty is not None for r in results for s in r.sections):
+        return None
+    point = np.array([[getattr(s, name) for s in r.sections] for r in results])
+    lo = np.array([[np.nan if s.uncertainty is None else getattr(s.uncertainty, name).lo
+                    for s in r.sections] for r in results])
+    hi = np.array([[np.nan if s.uncertainty is None else getattr(s.uncertainty, name).hi
+                    for s in r.sections] for r in results])
+    # the interval is of the members; the point may lie outside it: bars never negative
+    return np.stack([np.maximum(point - lo, 0.0), np.maximum(hi - point, 0.0)]) / scale
+
+
+def _df_interval(section: SectionResult) -> str:
+    """`` [lo, hi]`` of the section's DF over the ensemble; empty without uncertainty."""
+    u = section.uncertainty
+    return "" if u is None else " " + format_interval(u.ductility_factor.lo,
+                                                      u.ductility_factor.hi)
+
+
 def _steps(values: Sequence[float], zb: Sequence[float], zt: Sequence[float]
            ) -> tuple[np.ndarray, np.ndarray]:
     """Polyline of a per-section value drawn as a step over each section's height."""
@@ -156,7 +196,8 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
     (1.2 <= DF < 1.5) and damaged (DF >= 1.5) with dashed lines at the thresholds.  Sections
     whose spring never yielded have an open marker: their DF is only an upper bound (≈ 1).
     With exactly two results, the ``k1`` change of the second against the first (%) is
-    written beside its markers.
+    written beside its markers.  Sections identified by an ensemble have error bars from
+    the 5th to the 95th percentile of the members, on ``k1`` and on the DF.
 
     Parameters
     ----------
@@ -206,14 +247,21 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         k1_all = np.array([[s.k1 for s in r.sections] for r in results])
         if baseline_k1 is None:
             k_fac, k_unit = engineering_scale(k1_all, "N·m/rad")
-            k_vals = k1_all / k_fac
+            k_scale = np.full_like(k1_all, k_fac)
             ax_k.set_xlabel(rf"elastic stiffness $k_1$ ({k_unit})")
         else:
-            k_vals = k1_all / base
+            k_scale = np.broadcast_to(base, k1_all.shape)
             ax_k.axvline(1.0, color="0.4", lw=1.0, ls="--")
             ax_k.set_xlabel(rf"$k_1$ / $k_1$ of {baseline_label} (–)")
+        k_vals = k1_all / k_scale
         df_all = np.array([[s.ductility_factor for s in r.sections] for r in results])
-        df_max = float(np.nanmax(df_all)) if np.any(np.isfinite(df_all)) else 1.0
+        k_err = _interval_errors(results, "k1", k_scale)
+        df_err = _interval_errors(results, "ductility_factor", np.ones_like(df_all))
+        # the axes hold the bars too
+        k_ext = k_vals if k_err is None else np.concatenate(
+            [k_vals, np.fmin(k_vals, k_vals - k_err[0]), np.fmax(k_vals, k_vals + k_err[1])])
+        df_ext = df_all if df_err is None else np.fmax(df_all, df_all + df_err[1])
+        df_max = float(np.nanmax(df_ext)) if np.any(np.isfinite(df_ext)) else 1.0
         df_right = max(2.0, 1.12 * df_max)
         spans = (("intact", 0.0, SUSPICIOUS_DF), ("suspicious", SUSPICIOUS_DF, DAMAGED_DF),
                  ("damaged", DAMAGED_DF, df_right))
@@ -241,13 +289,18 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
                        color=color)
             ax_df.plot(df_all[j][~yielded], zj[j][~yielded], ls="none", marker=marker, ms=7,
                        mfc="white", mec=color, mew=1.6)
+            if k_err is not None:
+                ax_k.errorbar(k_vals[j], zj[j], xerr=k_err[:, j], ls="none", color=color,
+                              elinewidth=1.4, capsize=4)
+                ax_df.errorbar(df_all[j], zj[j], xerr=df_err[:, j], ls="none", color=color,
+                               elinewidth=1.4, capsize=4)
             event_handles.append((line, marker, color,
                                   f"{labels[j]} (overall: {r.overall_state})"))
         if len(results) <= 2:  # DF values as numbers, right of the section's markers
             for j, r in enumerate(results):
                 for i, s in enumerate(r.sections):
                     ax_df.annotate(format_df(s.ductility_factor, s.yielded).replace("<=", "≤"),
-                                   (float(np.nanmax(df_all[:, i])), zj[j][i]), xytext=(8, 0),
+                                   (float(np.nanmax(df_ext[:, i])), zj[j][i]), xytext=(8, 0),
                                    textcoords="offset points", fontsize=8.5,
                                    color=_EVENT_COLORS[j], va="center",
                                    bbox=dict(boxstyle="square,pad=0.1", fc="white", ec="none",
@@ -255,17 +308,17 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         if len(results) == 2:
             change = 100.0 * (k1_all[1] / k1_all[0] - 1.0)
             for i in range(n):
-                ax_k.annotate(f"{change[i]:+.1f} %", (float(np.max(k_vals[:, i])), zm[i]),
+                ax_k.annotate(f"{change[i]:+.1f} %", (float(np.nanmax(k_ext[:, i])), zm[i]),
                               xytext=(9, 0), textcoords="offset points", fontsize=8.5,
                               color=_EVENT_COLORS[1], va="center",
                               bbox=dict(boxstyle="square,pad=0.1", fc="white", ec="none",
                                         alpha=0.75))
         # k1 axis from zero, so that a change reads at its true size
         if baseline_k1 is None:
-            ax_k.set_xlim(0.0, 1.22 * float(np.nanmax(k_vals)))
+            ax_k.set_xlim(0.0, 1.22 * float(np.nanmax(k_ext)))
         else:  # around the baseline (1), with room for the markers
-            lo = min(1.0, float(np.nanmin(k_vals)))
-            hi = max(1.0, float(np.nanmax(k_vals)))
+            lo = min(1.0, float(np.nanmin(k_ext)))
+            hi = max(1.0, float(np.nanmax(k_ext)))
             pad = max(0.05, 0.15 * (hi - lo))
             ax_k.set_xlim(lo - pad, hi + pad)
         ax_df.set_xlim(0.0, df_right)
@@ -295,6 +348,11 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
             handles.append(Line2D([], [], ls="none", marker="o", ms=7, mfc="white", mec="0.2",
                                   mew=1.6, label="open marker: spring did not yield,\n"
                                                  "DF is only an upper bound"))
+        if k_err is not None:
+            members = max(r.members for r in results)
+            handles.append(Line2D([], [], color="0.2", lw=1.4, marker="|", ms=9,
+                                  label=f"bars: 90 % interval over the ensemble\n"
+                                        f"({members} members, 5th–95th percentile)"))
         fig.legend(handles=handles, loc="outside lower center", ncols=min(3, len(handles)),
                    frameon=False)
         events = " vs ".join(labels) if len(labels) > 1 else labels[0]
@@ -306,13 +364,16 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
 # ------------------------------------------------------------------------------ hysteresis
 
 
-def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
+def plot_hysteresis(run: RunLike, path: str | Path, *,
+                    members: MemberResponses | None = None) -> Path:
     """Reproduced moment–rotation loops of every spring with the identified skeleton.
 
     One subplot per spring: ``θ`` against the moment from ``run.reproduced``, the skeleton
     lines ``k2 θ ± s`` (``s = fy (1 − k2/k1)``) and the elastic branch through the yield
     points ``(±θy, ±fy)``.  For a spring that never yielded only the elastic line ``k1 θ`` is
-    drawn: its ``k2`` and ``fy`` are not identifiable.
+    drawn: its ``k2`` and ``fy`` are not identifiable.  With ``members``, the loops of the
+    ensemble's members are drawn faintly beneath: together they are the band the ensemble
+    allows.  A title gives the DF, with its 90 % interval for an ensemble.
 
     Parameters
     ----------
@@ -320,6 +381,8 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
         The identification (its result and reproduced responses).
     path : str or Path
         The ``.png`` file to write.
+    members : MemberResponses, optional
+        The members' angles and moments, (M, T, N) each.
 
     Returns
     -------
@@ -332,6 +395,7 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
         If the reproduced responses do not match the result, or the file cannot be written.
     """
     res, rep = _check_run(run)
+    check_members_match(members, rep)
     theta = np.asarray(rep.theta, dtype=float)
     moment = np.asarray(rep.moment, dtype=float)
     n = len(res.sections)
@@ -339,6 +403,9 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
     nrows = math.ceil(n / ncols)
     t_fac, t_unit = engineering_scale(theta, "rad")
     m_fac, m_unit = engineering_scale(moment, "N·m")
+    # the axes take in the members' loops
+    th_all = theta[None] if members is None else np.concatenate([theta[None], members.theta])
+    m_all = moment[None] if members is None else np.concatenate([moment[None], members.moment])
     with _style():
         fig = _figure((4.1 * ncols + 0.3, 3.4 * nrows + 1.1))
         axes = fig.subplots(nrows, ncols, squeeze=False)
@@ -347,11 +414,15 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
         for i, s in enumerate(res.sections):
             ax = axes.flat[i]
             th, m = theta[:, i], moment[:, i]
+            if members is not None:
+                for k in range(members.members):
+                    ax.plot(members.theta[k, :, i] / t_fac, members.moment[k, :, i] / m_fac,
+                            color="#9ecae1", lw=0.6, alpha=_BAND_ALPHA)
             ax.plot(th / t_fac, m / m_fac, color="#1f77b4", lw=0.8)
-            lo, hi = float(th.min()), float(th.max())
+            lo, hi = float(th_all[:, :, i].min()), float(th_all[:, :, i].max())
             pad = 0.08 * max(hi - lo, 1e-12)
             grid = np.array([lo - pad, hi + pad])
-            mlo, mhi = float(m.min()), float(m.max())
+            mlo, mhi = float(m_all[:, :, i].min()), float(m_all[:, :, i].max())
             if s.yielded:  # show the yield points even where the response did not reach them
                 lo, hi = min(lo, -s.yield_angle_rad), max(hi, s.yield_angle_rad)
                 mlo, mhi = min(mlo, -s.fy), max(mhi, s.fy)
@@ -366,7 +437,7 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
                         color="#d62728", lw=1.3)
                 ax.plot(np.array([-ty, ty]) / t_fac, np.array([-s.fy, s.fy]) / m_fac, ls="none",
                         marker="o", ms=5, color="#d62728")
-                title = f"yielded, DF {s.ductility_factor:.2f}"
+                title = f"yielded, DF {s.ductility_factor:.2f}{_df_interval(s)}"
             else:
                 ax.plot(grid / t_fac, s.k1 * grid / m_fac, ls=":", color="#d62728", lw=1.3)
                 peak = float(np.max(np.abs(m)))
@@ -374,7 +445,7 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
                         f"($f_y$ ≥ max|M| = {peak / m_fac:.3g} {m_unit})",
                         transform=ax.transAxes, va="top", ha="left", fontsize=8.5,
                         bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9))
-                title = f"not yielded, DF ≤ {s.ductility_factor:.2f}"
+                title = f"{s.yield_status}, DF ≤ {s.ductility_factor:.2f}{_df_interval(s)}"
             mpad = 0.12 * max(mhi - mlo, 1e-12)
             ax.set_xlim((lo - pad) / t_fac, (hi + pad) / t_fac)
             ax.set_ylim((mlo - mpad) / m_fac, (mhi + mpad) / m_fac)
@@ -390,7 +461,11 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
                    Line2D([], [], color="#d62728", ls=":", lw=1.3, marker="o", ms=5,
                           label=r"elastic $k_1\theta$ to the yield points "
                                 r"$(\pm\theta_y, \pm f_y)$")]
-        fig.legend(handles=handles, loc="outside lower center", ncols=3, frameon=False)
+        if members is not None:
+            handles.append(Line2D([], [], color="#9ecae1", lw=2.0,
+                                  label=f"the {members.members} ensemble members' responses"))
+        fig.legend(handles=handles, loc="outside lower center", ncols=min(3, len(handles)),
+                   frameon=False)
         fig.suptitle(f"Pier {res.pier_id}, event {res.event_id}: moment–rotation of the "
                      "springs, identified bilinear model")
         return _save(fig, path)
@@ -399,12 +474,14 @@ def plot_hysteresis(run: RunLike, path: str | Path) -> Path:
 # ------------------------------------------------------------------------------- responses
 
 
-def plot_responses(window: MeasuredWindow, run: RunLike, path: str | Path) -> Path:
+def plot_responses(window: MeasuredWindow, run: RunLike, path: str | Path, *,
+                   members: MemberResponses | None = None) -> Path:
     """Measured against reproduced relative displacement and acceleration of every level.
 
     Rows are the levels, top of the pier first; the left column is the displacement, the
     right the acceleration relative to the foundation, against time.  Each panel gives the
-    RMS misfit as a share of the measured peak.
+    RMS misfit as a share of the measured peak.  With ``members`` holding their ``x`` and
+    ``a``, a band shades the 5th to 95th percentile of the members at each time.
 
     Parameters
     ----------
@@ -414,6 +491,8 @@ def plot_responses(window: MeasuredWindow, run: RunLike, path: str | Path) -> Pa
         The identification (its reproduced responses).
     path : str or Path
         The ``.png`` file to write.
+    members : MemberResponses, optional
+        The members' histories, (M, T, N); the band needs their ``x`` and ``a``.
 
     Returns
     -------
@@ -423,11 +502,13 @@ def plot_responses(window: MeasuredWindow, run: RunLike, path: str | Path) -> Pa
     Raises
     ------
     ReportError
-        If the window and the run differ in pier, event, levels or samples, or the file
-        cannot be written.
+        If the window and the run differ in pier, event, levels or samples, the members'
+        histories in shape, or the file cannot be written.
     """
     res, rep = _check_run(run)
     check_window_matches(window, run)
+    check_members_match(members, rep)
+    bands = {q: None if members is None else members.band(q) for q in ("x", "a")}
     n = window.n_levels
     z = window.geometry.level_heights_m
     x_fac, x_unit = engineering_scale(window.x, "m")
@@ -442,6 +523,10 @@ def plot_responses(window: MeasuredWindow, run: RunLike, path: str | Path) -> Pa
                 meas = np.asarray(getattr(window, q))[:, lvl]
                 repro = np.asarray(getattr(rep, q))[:, lvl]
                 ax.plot(window.t, meas / fac, color="0.6", lw=1.8)
+                if bands[q] is not None:
+                    lo, hi = bands[q]
+                    ax.fill_between(rep.t, lo[:, lvl] / fac, hi[:, lvl] / fac, color="#1f4e9c",
+                                    alpha=_BAND_ALPHA, lw=0)
                 ax.plot(rep.t, repro / fac, color="#1f4e9c", lw=0.9, ls="--")
                 peak = float(np.max(np.abs(meas)))
                 misfit = 100.0 * float(np.sqrt(np.mean((repro - meas) ** 2))) / peak \
@@ -463,7 +548,11 @@ def plot_responses(window: MeasuredWindow, run: RunLike, path: str | Path) -> Pa
 
         handles = [Line2D([], [], color="0.6", lw=1.8, label="measured"),
                    Line2D([], [], color="#1f4e9c", lw=0.9, ls="--", label="reproduced (PINN)")]
-        fig.legend(handles=handles, loc="outside lower center", ncols=2, frameon=False)
+        if bands["x"] is not None or bands["a"] is not None:
+            handles.append(Patch(color="#1f4e9c", alpha=_BAND_ALPHA,
+                                 label=f"90 % band of the {members.members} ensemble members"))
+        fig.legend(handles=handles, loc="outside lower center", ncols=len(handles),
+                   frameon=False)
         fig.suptitle(f"Pier {res.pier_id}, event {res.event_id}: responses relative to the "
                      "foundation, measured and reproduced")
         return _save(fig, path)

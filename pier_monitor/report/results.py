@@ -11,8 +11,10 @@
   :mod:`~pier_monitor.report.figures`), unless figures are turned off;
 * ``result.json``, last, so that its presence marks a complete report —
   :meth:`IdentificationResult.to_dict` (parameters, DF and state per section, settings, loss
-  history) with the software version, the absolute window start and what ``k1_change_pct``
-  is relative to; :meth:`IdentificationResult.load_json` reads it back exactly.
+  history; for an ensemble each section's uncertainty, ``k1`` change interval and reasons,
+  and the overall-state probabilities) with the software version, the absolute window start
+  and what ``k1_change_pct`` is relative to; :meth:`IdentificationResult.load_json` reads it
+  back exactly.
 
 It returns the saved result with the paths, so nobody reads ``result.json`` back.
 :func:`damage_state_fields` is the one mapping from a result to the message's fields.
@@ -32,15 +34,16 @@ from pier_monitor.bags.types import get_typestore, message_from_fields
 from pier_monitor.bags.writer import write_mcap_messages
 from pier_monitor.core.errors import BagError, InputDataError, ReportError
 from pier_monitor.core.fileio import atomic_path
-from pier_monitor.core.identify.damage import DamageState, IdentificationResult
+from pier_monitor.core.identify.damage import DamageState, IdentificationResult, SectionResult
+from pier_monitor.core.identify.uncertainty import MemberResponses, Spread
 from pier_monitor.core.ingest.recording import NS_PER_S, ns_to_stamp, stamp_to_ns
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 
 from ._common import check_same_pier, ensure_dir
 from .diagnostics import DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS_TOPIC, diagnostics_fields
-from .figures import (RunLike, check_window_matches, plot_hysteresis, plot_profile,
-                      plot_responses, plot_training)
+from .figures import (RunLike, check_members_match, check_window_matches, plot_hysteresis,
+                      plot_profile, plot_responses, plot_training)
 from .markers import MARKER_ARRAY_TYPE, damage_markers_fields, damage_markers_topic
 
 __all__ = [
@@ -120,8 +123,10 @@ def damage_state_fields(result: IdentificationResult, *, stamp_ns: int | None = 
 
     Nested messages are dicts (``header``, ``window_start``, each of ``sections``), times
     are ``{"sec", "nanosec"}``, states are the ``SectionState.STATE_*`` codes, and a
-    ``k1_change_pct`` of ``None`` (no baseline) is NaN.  Both the results mcap and the
-    identifier node build their messages from this mapping.
+    ``k1_change_pct`` of ``None`` (no baseline) is NaN.  A section without uncertainty (a
+    single identification) has NaN spreads, probabilities and change interval, and no
+    reasons.  Both the results mcap and the identifier node build their messages from this
+    mapping.
 
     Parameters
     ----------
@@ -139,7 +144,7 @@ def damage_state_fields(result: IdentificationResult, *, stamp_ns: int | None = 
     start_ns = _window_start_ns(result)
     sections = []
     for s in result.sections:
-        sections.append({
+        sections.append(_uncertainty_fields(s) | {
             "index": int(s.index),
             "z_bottom_m": float(s.z_bottom_m),
             "z_top_m": float(s.z_top_m),
@@ -164,6 +169,10 @@ def damage_state_fields(result: IdentificationResult, *, stamp_ns: int | None = 
         "window_duration_s": float(result.window_duration_s),
         "sections": sections,
         "overall_state": int(DamageState[result.overall_state.upper()]),
+        "members": int(result.members),
+        **{f"p_overall_{name}": _nan_if_none(None if result.p_overall_state is None
+                                             else result.p_overall_state[i])
+           for i, name in enumerate(("intact", "suspicious", "damaged"))},
         "epochs": int(result.epochs),
         "final_loss": float(result.final_loss),
         "wall_time_s": float(result.wall_time_s),
@@ -171,6 +180,27 @@ def damage_state_fields(result: IdentificationResult, *, stamp_ns: int | None = 
         "message": str(result.message),
         "success": bool(result.success),
     }
+
+
+def _nan_if_none(value: float | None) -> float:
+    return float("nan") if value is None else float(value)
+
+
+def _uncertainty_fields(s: SectionResult) -> dict[str, Any]:
+    """The uncertainty fields of a ``SectionState`` (NaN / empty without uncertainty)."""
+    u = s.uncertainty
+    out: dict[str, Any] = {}
+    for name in ("k1", "k2", "fy", "c", "ductility_factor"):
+        spread = Spread.undefined() if u is None else getattr(u, name)
+        for key in ("mean", "std", "lo", "hi"):
+            out[f"{name}_{key}"] = float(getattr(spread, key))
+    out["p_yielded"] = _nan_if_none(None if u is None else u.p_yielded)
+    for i, name in enumerate(("intact", "suspicious", "damaged")):
+        out[f"p_{name}"] = _nan_if_none(None if u is None else u.p_state[i])
+    for key in ("k1_change_lo_pct", "k1_change_hi_pct", "k1_change_scatter_pct"):
+        out[key] = _nan_if_none(getattr(s, key))
+    out["reasons"] = [str(r) for r in s.reasons]
+    return out
 
 
 def damage_state_message(result: IdentificationResult, *, stamp_ns: int | None = None) -> Any:
@@ -245,7 +275,10 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
     """The run's result as it is saved: window start, ``k1`` baseline and version filled in.
 
     ``k1_change_pct`` is recomputed against ``baseline``: the window's design values when
-    ``None``, an earlier result of the same pier (its ``k1``), or an array (N,) in N·m/rad.
+    ``None``, an earlier result of the same pier (its ``k1`` and, for an ensemble, its ``k1``
+    spread: a loss beyond the scatter is cracking, see
+    :meth:`IdentificationResult.with_baseline`), or an array (N,) in N·m/rad.  The sections'
+    states are decided again against it.
 
     Raises
     ------
@@ -255,25 +288,25 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
     check_window_matches(window, run)
     result = run.result
     if baseline is None:
-        base_k1, label = window.design.k1, "design values"
+        result = result.with_k1_baseline(window.design.k1, "design values")
     elif isinstance(baseline, IdentificationResult):
         check_same_pier([baseline, result], [f"baseline {baseline.event_id!r}",
                                              f"result {result.event_id!r}"])
-        base_k1, label = baseline.params.k1, f"event {baseline.event_id}"
+        result = result.with_baseline(baseline)
     else:
         base_k1 = np.asarray(baseline, dtype=float)
         if base_k1.shape != (len(result.sections),) or not np.all(
                 np.isfinite(base_k1) & (base_k1 > 0)):
             raise ReportError(f"baseline k1: expected {len(result.sections)} finite positive "
                               f"values in N·m/rad, got {base_k1.tolist()}")
-        label = "given baseline"
-    result = result.with_k1_baseline(base_k1, label)
+        result = result.with_k1_baseline(base_k1, "given baseline")
     return replace(result, window_start_ns=int(window.start_time_ns), software_version=version)
 
 
 def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
                   baseline: IdentificationResult | np.ndarray | None = None,
-                  figures: bool = True, version: str = __version__) -> WrittenResult:
+                  figures: bool = True, version: str = __version__,
+                  members: MemberResponses | None = None) -> WrittenResult:
     """Write damage_state.mcap, the four figures and result.json of one identification.
 
     Existing files of an earlier report in ``out_dir`` are replaced; ``result.json`` is
@@ -296,6 +329,9 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
         Also draw the four PNG figures (a few seconds).
     version : str
         Software version recorded in result.json.
+    members : MemberResponses, optional
+        The histories of an ensemble's members, (M, T, N): the hysteresis and responses
+        figures draw their band.
 
     Returns
     -------
@@ -308,6 +344,7 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
         If ``out_dir`` cannot be created or written (the message names it), or the run,
         window and baseline do not belong together.
     """
+    check_members_match(members, run.reproduced)
     out = ensure_dir(out_dir)
     result = prepare_result(run, window, baseline=baseline, version=version)
     paths = ResultsPaths(out_dir=out, result_json=out / RESULT_JSON,
@@ -315,7 +352,7 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
                          figures=tuple(out / name for name in FIGURE_FILES) if figures else ())
     write_damage_state_mcap(result, paths.damage_state_mcap)
     if figures:
-        _write_figures(_RunWithResult(run, result), window, baseline, paths.figures)
+        _write_figures(_RunWithResult(run, result), window, baseline, paths.figures, members)
     try:
         result.save_json(paths.result_json)
     except OSError as err:
@@ -325,7 +362,7 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
 
 def _write_figures(saved: _RunWithResult, window: MeasuredWindow,
                    baseline: IdentificationResult | np.ndarray | None,
-                   files: tuple[Path, ...]) -> None:
+                   files: tuple[Path, ...], members: MemberResponses | None) -> None:
     profile, hysteresis, responses, training = files
     if isinstance(baseline, IdentificationResult):
         plot_profile([baseline, saved.result], None, profile)
@@ -334,8 +371,8 @@ def _write_figures(saved: _RunWithResult, window: MeasuredWindow,
                      baseline_label="the baseline")
     else:
         plot_profile([saved.result], None, profile)
-    plot_hysteresis(saved, hysteresis)
-    plot_responses(window, saved, responses)
+    plot_hysteresis(saved, hysteresis, members=members)
+    plot_responses(window, saved, responses, members=members)
     plot_training(saved, training)
 
 

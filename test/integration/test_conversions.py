@@ -142,3 +142,76 @@ def test_sensor_messages_are_checked_against_the_sensor_map() -> None:
     wire = next(s for s in config.sensors if s.kind == "displacement")
     with pytest.raises(MessageError, match="sensor_msgs/Imu"):
         imu_arrays(imu, wire, "/p/wire")
+
+
+def _ensemble_result() -> Any:
+    """Two sections: one at DF 1.17 ± 0.1 (straddles 1.2), one that may have yielded."""
+    from ensemble_helpers import ensemble_result, normal_members, yielded_members
+
+    return ensemble_result("run2", [normal_members(1e9, 0.02e9), normal_members(0.9e9, 0.01e9)],
+                           [normal_members(1.17, 0.1), normal_members(0.9, 0.05)],
+                           [yielded_members(1.0), yielded_members(0.3)],
+                           baseline_k1=np.array([1.0e9, 1.0e9]), window_start_ns=START_NS)
+
+
+def test_damage_state_with_uncertainty_crosses_the_wire_in_every_field() -> None:
+    from pier_monitor_msgs.msg import PierDamageState
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from pier_monitor.nodes.conversions import damage_state_msg
+    from pier_monitor.report.results import damage_state_fields
+
+    result = _ensemble_result()
+    fields = damage_state_fields(result)
+    wire = deserialize_message(serialize_message(damage_state_msg(fields)), PierDamageState)
+    assert wire.members == result.members == 200
+    assert (wire.p_overall_intact, wire.p_overall_suspicious, wire.p_overall_damaged) == \
+        pytest.approx(result.p_overall_state)
+    for got, want in zip(wire.sections, fields["sections"]):
+        for key, value in want.items():
+            if key == "reasons":
+                assert list(got.reasons) == value
+            else:
+                assert getattr(got, key) == pytest.approx(value, nan_ok=True), key
+    assert [s.state for s in wire.sections] == [1, 1]
+    assert wire.sections[1].reasons[0].startswith("may have yielded (P(yielded) 0.30")
+
+
+def test_diagnostics_give_intervals_probabilities_and_reasons() -> None:
+    from diagnostic_msgs.msg import DiagnosticStatus
+
+    from pier_monitor.nodes.conversions import damage_diagnostics
+    from pier_monitor.report.results import damage_state_fields
+
+    result = _ensemble_result()
+    arr = damage_diagnostics(damage_state_fields(result), START_NS)
+    first, second, identifier = arr.status
+    values = {kv.key: kv.value for kv in first.values}
+    u = result.sections[0].uncertainty
+    assert first.level == DiagnosticStatus.WARN
+    assert values["k1_90pct"] == f"[{u.k1.lo:.6g}, {u.k1.hi:.6g}]"
+    assert values["ductility_factor_90pct"] == (f"[{u.ductility_factor.lo:.6g}, "
+                                                f"{u.ductility_factor.hi:.6g}]")
+    assert float(values["p_yielded"]) == 1.0
+    assert [float(values[f"p_{s}"]) for s in ("intact", "suspicious", "damaged")] == \
+        pytest.approx(u.p_state, abs=1e-6)
+    assert values["reasons"] == "; ".join(result.sections[0].reasons) != ""
+    assert "straddles 1.2" in first.message and "200 members" in first.message
+    assert {kv.key: kv.value for kv in second.values}["reasons"].startswith("may have yielded")
+    assert {kv.key: kv.value for kv in identifier.values}["members"] == "200"
+
+
+def test_diagnostics_of_a_single_identification_have_no_uncertainty_values() -> None:
+    from ensemble_helpers import ensemble_result
+
+    from pier_monitor.nodes.conversions import damage_diagnostics
+    from pier_monitor.report.results import damage_state_fields
+
+    single = ensemble_result("run1", [np.full(1, 1e9)], [np.full(1, 1.3)], [np.ones(1, bool)],
+                             baseline_k1=np.array([1.1e9]))
+    arr = damage_diagnostics(damage_state_fields(single), START_NS)
+    section = arr.status[0]
+    assert [kv.key for kv in section.values] == [
+        "event_id", "state", "z_bottom_m", "z_top_m", "k1", "k1_change_pct",
+        "ductility_factor", "k2", "fy", "c"]
+    assert section.message == "suspicious: DF 1.3, k1 change -9.09091 % (event run1)"

@@ -14,9 +14,13 @@ import numpy as np
 import pytest
 from ros_helpers import check_markers
 
+from ensemble_helpers import MEMBERS, ensemble_result, normal_members, yielded_members
 from pier_monitor import __version__
 from pier_monitor.core.identify.damage import IdentificationResult, SectionResult, classify_ductility
+from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
+                                                    summarize_members)
 from pier_monitor.core.errors import ReportError
+from pier_monitor.report.results import DAMAGE_STATE_TYPE
 from pier_monitor.report import (FIGURE_DPI, PROFILE_FIGSIZE_IN, compare_results,
                                  damage_state_fields, damage_state_topic, load_result,
                                  write_results)
@@ -254,3 +258,188 @@ def test_foxglove_layout_shows_the_topics_of_a_results_mcap() -> None:
         return [node] if isinstance(node, str) else leaves(node["first"]) + leaves(node["second"])
 
     assert sorted(leaves(layout["layout"])) == sorted(panels)
+
+
+# --------------------------------------------------------------- ensemble (uncertainty)
+
+ENSEMBLE_MEMBERS = 8
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equal, NaN equal to NaN."""
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or (math.isnan(a) and math.isnan(b))
+    return a == b
+
+
+@pytest.fixture(scope="module")
+def ensemble_written(identified: tuple[Any, Any], tmp_path_factory: pytest.TempPathFactory
+                     ) -> tuple[Any, Any]:
+    """The identified run made an ensemble: hand-made members scattered around it."""
+    window, run = identified
+    rng = np.random.default_rng(1)
+    m, n = ENSEMBLE_MEMBERS, len(run.result.sections)
+    p = run.result.params
+    point = np.stack([p.k1, p.k2, p.fy, p.c], axis=-1)
+    params = point[None] * (1.0 + 0.02 * rng.standard_normal((m, n, 4)))
+    df = run.result.ductility_factors[None] * (1.0 + 0.05 * rng.standard_normal((m, n)))
+    yielded = np.tile([s.yielded for s in run.result.sections], (m, 1))
+    uncertainty = summarize_members(params, df, yielded)
+    result = replace(run.result,
+                     sections=tuple(replace(s, uncertainty=u)
+                                    for s, u in zip(run.result.sections, uncertainty)),
+                     p_overall_state=overall_state_probabilities(df, yielded))
+    rep = run.reproduced
+    scale = 1.0 + 0.03 * np.linspace(-1.0, 1.0, m)[:, None, None]
+    members = MemberResponses(theta=rep.theta[None] * scale, moment=rep.moment[None] * scale,
+                              x=rep.x[None] * scale, a=rep.a[None] * scale)
+    out = tmp_path_factory.mktemp("report") / "ensemble"
+    return members, write_results(replace(run, result=result), window, out, members=members)
+
+
+def test_ensemble_result_json_round_trips_its_uncertainty(ensemble_written) -> None:
+    _, written = ensemble_written
+    result = written.result
+    assert result.members == ENSEMBLE_MEMBERS and sum(result.p_overall_state) == pytest.approx(1)
+    assert all(s.uncertainty is not None and s.k1_change_lo_pct < s.k1_change_pct
+               < s.k1_change_hi_pct for s in result.sections)
+    loaded = load_result(written.paths.out_dir)
+    assert json.dumps(loaded.to_dict(), sort_keys=True) == json.dumps(result.to_dict(),
+                                                                      sort_keys=True)
+    # dataclass equality where no spread is NaN (k2, fy of springs that yielded)
+    yielded = [i for i, s in enumerate(result.sections) if s.yielded]
+    assert yielded and all(loaded.sections[i] == result.sections[i] for i in yielded)
+
+
+def test_ensemble_damage_state_decodes_from_the_mcap_with_only_the_msg_text(
+        ensemble_written) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    _, written = ensemble_written
+    result = written.result
+    with written.paths.damage_state_mcap.open("rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        ((schema, _, _, decoded),) = [m for m in reader.iter_decoded_messages()
+                                      if m[0].name == DAMAGE_STATE_TYPE]
+    assert b"float64 k1_lo" in schema.data and b"string[] reasons" in schema.data
+    assert decoded.members == ENSEMBLE_MEMBERS
+    assert (decoded.p_overall_intact, decoded.p_overall_suspicious,
+            decoded.p_overall_damaged) == result.p_overall_state
+    for got, want in zip(decoded.sections, result.sections):
+        u = want.uncertainty
+        for name in ("k1", "k2", "fy", "c", "ductility_factor"):
+            spread = getattr(u, name)
+            assert all(_same(getattr(got, f"{name}_{key}"), getattr(spread, key))
+                       for key in ("mean", "std", "lo", "hi")), name
+        assert got.p_yielded == u.p_yielded
+        assert (got.p_intact, got.p_suspicious, got.p_damaged) == u.p_state
+        assert (got.k1_change_lo_pct, got.k1_change_hi_pct, got.k1_change_scatter_pct) == (
+            want.k1_change_lo_pct, want.k1_change_hi_pct, want.k1_change_scatter_pct)
+        assert list(got.reasons) == list(want.reasons)
+        assert got.state == int(want.damage_state)
+
+
+def test_single_identification_fills_the_uncertainty_fields_with_nan(msg_typestore) -> None:
+    fields = damage_state_fields(_result("p1", "e1", [1e9, 1e9], [1.3, 0.9]))
+    assert fields["members"] == 1 and math.isnan(fields["p_overall_damaged"])
+    s = fields["sections"][0]
+    assert all(math.isnan(s[k]) for k in ("k1_mean", "k1_lo", "ductility_factor_hi",
+                                          "p_yielded", "p_damaged", "k1_change_lo_pct"))
+    assert s["reasons"] == []
+
+
+def test_ensemble_message_round_trips_through_cdr_of_the_msg_text(ensemble_written,
+                                                                   msg_typestore) -> None:
+    from pier_monitor.report.results import damage_state_message
+
+    _, written = ensemble_written
+    msg = damage_state_message(written.result)
+    cdr = msg_typestore.serialize_cdr(msg, "pier_monitor_msgs/msg/PierDamageState")
+    back = msg_typestore.deserialize_cdr(cdr, "pier_monitor_msgs/msg/PierDamageState")
+    fields = damage_state_fields(written.result)
+    assert back.members == fields["members"] == ENSEMBLE_MEMBERS
+    for got, want in zip(back.sections, fields["sections"]):
+        assert all(_same(getattr(got, k), v) for k, v in want.items() if k != "reasons")
+        assert list(got.reasons) == want["reasons"]
+
+
+def test_ensemble_figures_draw_bars_and_bands(identified, written, ensemble_written,
+                                              tmp_path) -> None:
+    from matplotlib.image import imread
+
+    _, ens = ensemble_written
+    for single, banded in zip(written.paths.figures[:3], ens.paths.figures[:3]):
+        assert _png_size(single) == _png_size(banded)
+        assert not np.array_equal(imread(single), imread(banded)), \
+            f"{banded.name}: no bars or band drawn"
+
+
+def test_member_histories_of_another_shape_are_refused_before_writing(identified,
+                                                                       tmp_path) -> None:
+    window, run = identified
+    theta = np.asarray(run.reproduced.theta)
+    members = MemberResponses(theta=theta[None, :-1], moment=theta[None, :-1])
+    with pytest.raises(ReportError, match=r"member histories: expected shape \(M, \d+, 6\)"):
+        write_results(run, window, tmp_path / "event", members=members)
+    assert not (tmp_path / "event").exists()
+
+
+def test_cli_compare_prints_k1_change_intervals_and_cracking(tmp_path: Path, capsys) -> None:
+    from pier_monitor.cli import main
+
+    k1, df = normal_members(1e9, 0.01e9), normal_members(0.8, 0.03)
+    no = np.zeros_like(df, dtype=bool)
+    before = ensemble_result("run1", [k1, k1], [df, df], [no, no])
+    after = ensemble_result("run2", [0.86 * k1, 0.995 * k1], [df, df], [no, no])
+    for r in (before, after):
+        (tmp_path / r.event_id).mkdir()
+        r.save_json(tmp_path / r.event_id / "result.json")
+    assert main(["compare", str(tmp_path / "run1"), str(tmp_path / "run2")]) == 0
+    out = capsys.readouterr().out
+    cmp = compare_results(before, after)
+    s1, s2 = cmp.sections
+    assert "90 % interval" in out
+    assert (f"section 1 (0.0-2.0 m): k1 -14.0 % [{s1.k1_change_lo_pct:+.1f}, "
+            f"{s1.k1_change_hi_pct:+.1f}], DF <=0.80 -> <=0.80, intact -> suspicious (worse): "
+            f"k1 -14.0 % [{s1.k1_change_lo_pct:+.1f}, {s1.k1_change_hi_pct:+.1f}] against event "
+            f"run1, beyond the identification scatter ({s1.k1_change_scatter_pct:.1f} %): "
+            "cracking") in out
+    assert "section 2 (2.0-4.0 m): k1 -0.5 % [" in out and s2.state_after == "intact"
+    assert cmp.overall_after == "suspicious"
+    doc = json.loads((tmp_path / "run2" / "compare.json").read_text())
+    assert doc["sections"][0]["reasons"] == list(s1.reasons)
+
+
+def test_identify_tables_print_intervals_and_state_probabilities(tmp_path: Path,
+                                                                 capsys) -> None:
+    from pier_monitor.cli import _print_outcome
+    from pier_monitor.core.ingest.settings import IngestReport
+    from pier_monitor.core.synthetic.reference import paper_case_window
+    from pier_monitor.events import EventOutcome
+    from pier_monitor.pipeline import BagOutcome
+
+    window, _, _ = paper_case_window(seed=0)
+    df = [normal_members(0.9 + 0.15 * i, 0.1) for i in range(window.n_levels)]
+    k1 = [normal_members(1e9, 0.02e9) for _ in range(window.n_levels)]
+    yielded = [yielded_members(0.2 * i) for i in range(window.n_levels)]
+    result = ensemble_result(window.event_id, k1, df, yielded, pier_id=window.pier_id,
+                             baseline_k1=np.full(window.n_levels, 1.05e9))
+    event = EventOutcome(window=window, result=result, out_dir=tmp_path, window_file=tmp_path,
+                         paths=None)
+    _print_outcome(BagOutcome(bag=tmp_path, events=(event,), ingest_report=IngestReport()))
+    out = capsys.readouterr().out
+    assert f"uncertainty over {MEMBERS} members" in out
+    assert "P(intact/susp./dam.)" in out
+    for s in result.sections:
+        u = s.uncertainty
+        p = " / ".join(f"{v:.2f}" for v in u.p_state)
+        row = next(line for line in out.splitlines()
+                   if line.startswith(f"{s.index + 1:>7}  ") and p in line)
+        assert (f"{u.ductility_factor.mean:.2f} [{u.ductility_factor.lo:.2f}, "
+                f"{u.ductility_factor.hi:.2f}]") in row
+        assert f"{u.k1.mean / 1e9:.3f} [{u.k1.lo / 1e9:.3f}, {u.k1.hi / 1e9:.3f}]" in row
+        assert f"{u.p_yielded:.2f}" in row
+        for reason in s.reasons:
+            assert f"section {s.index + 1}: {s.state}: {reason}" in out
+    assert any(s.reasons for s in result.sections)

@@ -1,16 +1,34 @@
-"""Damage indices and identification results (SPEC §5, paper §4.5).
+"""Damage indices, decisions on a section's state, identification results (SPEC §5, paper §4.5).
 
 ``DF_n = max_t |θ_n(t)| / θy_n`` from the reproduced responses; DF < 1.2 intact,
 1.2 <= DF < 1.5 suspicious, DF >= 1.5 damaged.  A spring that never yielded has no
 identifiable ``k2``/``fy``: its DF is only bounded (``DF <= max|θ| k1 / max|f| ≈ 1``) and it is
 reported as intact with the identifiable flags false — never as numbers that look measured.
+
+Without uncertainty (a single identification) that is the whole rule.  A section identified by
+an ensemble carries a :class:`~pier_monitor.core.identify.uncertainty.SectionUncertainty`, and
+:func:`decide_state` then decides (each promotion adds a plain-language reason):
+
+1. the state is the most probable one over the members (a tie goes to the worse state);
+2. where the 90 % DF interval straddles 1.2 or 1.5 (``lo < threshold <= hi``) an intact state
+   becomes suspicious: the members do not agree on the class.  A straddle never demotes a
+   state and never makes a section damaged (an interval across 1.5 says "suspicious or
+   damaged", and the most probable state already chose between them);
+3. "not yielded" (``k2``/``fy`` not identifiable, DF <= 1) stands only while the probability
+   that the spring yielded is below :data:`P_YIELD_LOW`; a section reported as not yielded
+   with a larger probability "may have yielded" and is at least suspicious;
+4. a ``k1`` loss against an earlier event whose 90 % interval lies below zero by more than the
+   identification's own scatter (:func:`k1_loss_beyond_scatter`) is cracking: the section
+   is at least suspicious.  Against design values the rule does not apply: a design value
+   is no measurement, its difference from an identified ``k1`` is no evidence of damage.
 """
 
 from __future__ import annotations
 
 import json
+import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
-from enum import IntEnum
 from pathlib import Path
 from typing import Any
 
@@ -21,9 +39,19 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.fileio import atomic_path
 from pier_monitor.core.ingest.window import MeasuredWindow
 
+from .states import DAMAGED_DF, SUSPICIOUS_DF, DamageState, classify_ductility
+from .uncertainty import K1ChangeInterval, SectionUncertainty, Spread, k1_change_interval
+
 __all__ = [
+    "DAMAGED_DF",
+    "P_YIELD_LOW",
+    "SUSPICIOUS_DF",
     "DamageState",
     "classify_ductility",
+    "decide_state",
+    "k1_loss_beyond_scatter",
+    "k1_loss_reason",
+    "overall_state",
     "ductility_factors",
     "SectionResult",
     "IdentificationResult",
@@ -32,28 +60,9 @@ __all__ = [
     "k1_change_pct",
 ]
 
-SUSPICIOUS_DF = 1.2
-DAMAGED_DF = 1.5
-
-
-class DamageState(IntEnum):
-    """State of a section; the values match ``SectionState.msg``."""
-
-    INTACT = 0
-    SUSPICIOUS = 1
-    DAMAGED = 2
-    UNKNOWN = 3
-
-
-def classify_ductility(df: float) -> DamageState:
-    """Intact / suspicious / damaged from a ductility factor (NaN → unknown)."""
-    if not np.isfinite(df):
-        return DamageState.UNKNOWN
-    if df < SUSPICIOUS_DF:
-        return DamageState.INTACT
-    if df < DAMAGED_DF:
-        return DamageState.SUSPICIOUS
-    return DamageState.DAMAGED
+#: A section is reported "not yielded" only while the probability that its spring yielded
+#: (the share of the ensemble's members) is below this.
+P_YIELD_LOW = 0.1
 
 
 def ductility_factors(theta: np.ndarray, params: SpringParameters) -> np.ndarray:
@@ -82,9 +91,90 @@ def k1_change_pct(k1: np.ndarray, baseline_k1: np.ndarray) -> np.ndarray:
     return 100.0 * (k1 / base - 1.0)
 
 
+def k1_loss_beyond_scatter(change_pct: float, interval: K1ChangeInterval) -> bool:
+    """Whether a ``k1`` change is a loss beyond the identification's own scatter.
+
+    True when the change's 90 % interval lies below zero by more than the scatter:
+    ``hi_pct < −scatter_pct`` (both in %), and the change itself is a loss.
+    """
+    return change_pct < 0 and interval.hi_pct < -interval.scatter_pct
+
+
+def k1_loss_reason(change_pct: float, interval: K1ChangeInterval, baseline: str) -> str:
+    """The reason line of a ``k1`` loss beyond the scatter (see :func:`k1_loss_beyond_scatter`).
+
+    E.g. ``k1 -13.3 % [-15.1, -11.4] against event run1, beyond the identification scatter
+    (1.2 %): cracking``.
+    """
+    return (f"k1 {change_pct:+.1f} % [{interval.lo_pct:+.1f}, {interval.hi_pct:+.1f}] against "
+            f"{baseline}, beyond the identification scatter ({interval.scatter_pct:.1f} %): "
+            "cracking")
+
+
+def _may_have_yielded(yielded: bool, uncertainty: SectionUncertainty | None) -> bool:
+    """Reported as not yielded, but the ensemble gives a probability of at least P_YIELD_LOW."""
+    return (not yielded and uncertainty is not None and uncertainty.members >= 2
+            and uncertainty.p_yielded >= P_YIELD_LOW)
+
+
+def decide_state(ductility_factor: float, yielded: bool,
+                 uncertainty: SectionUncertainty | None = None, *,
+                 k1_loss: str | None = None) -> tuple[DamageState, tuple[str, ...]]:
+    """The state of a section and the reasons for every promotion (see the module's rules).
+
+    Parameters
+    ----------
+    ductility_factor : float
+        The section's DF (NaN: no diagnosis, the state is unknown).
+    yielded : bool
+        Whether the section is reported as yielded (its ``k2``/``fy`` identifiable).
+    uncertainty : SectionUncertainty, optional
+        The ensemble's uncertainty; without it (or with one member) the state is
+        :func:`classify_ductility` of the DF and there are no reasons.
+    k1_loss : str, optional
+        The reason line of a ``k1`` loss beyond the scatter against an earlier event
+        (:func:`k1_loss_reason`); it makes the section at least suspicious.  Used only with
+        an uncertainty.
+
+    Returns
+    -------
+    state : DamageState
+    reasons : tuple of str
+        One plain-language line per promotion above the most probable state.
+    """
+    if not math.isfinite(ductility_factor):
+        return DamageState.UNKNOWN, ()
+    if uncertainty is None or uncertainty.members < 2:
+        return classify_ductility(ductility_factor), ()
+    state = uncertainty.most_probable_state
+    reasons = []
+    df = uncertainty.ductility_factor
+    crossed = [t for t in (SUSPICIOUS_DF, DAMAGED_DF) if df.straddles(t)]
+    if crossed and state == DamageState.INTACT:
+        state = DamageState.SUSPICIOUS
+        reasons.append(f"DF 90 % interval [{df.lo:.2f}, {df.hi:.2f}] straddles "
+                       f"{' and '.join(f'{t:g}' for t in crossed)}")
+    if _may_have_yielded(yielded, uncertainty):
+        state = max(state, DamageState.SUSPICIOUS)
+        reasons.append(f"may have yielded (P(yielded) {uncertainty.p_yielded:.2f} of "
+                       f"{uncertainty.members} members)")
+    if k1_loss:
+        state = max(state, DamageState.SUSPICIOUS)
+        reasons.append(k1_loss)
+    return state, tuple(reasons)
+
+
 @dataclass(frozen=True)
 class SectionResult:
-    """Identified state of one section (spring ``index`` + 1 and its damper), SI units."""
+    """Identified state of one section (spring ``index`` + 1 and its damper), SI units.
+
+    ``k1_change_pct`` is the change of ``k1`` against the result's baseline (%, None without
+    one).  A section identified by an ensemble also has its ``uncertainty``, the 90 %
+    interval of that change (``k1_change_lo_pct``, ``k1_change_hi_pct``, %) with the
+    identification scatter it is judged against (``k1_change_scatter_pct``, percentage
+    points), and the ``reasons`` for a state promoted above the most probable one
+    (:func:`decide_state`); all None / empty for a single identification.
+    """
 
     index: int
     z_bottom_m: float
@@ -101,11 +191,74 @@ class SectionResult:
     k2_identifiable: bool
     fy_identifiable: bool
     k1_change_pct: float | None = None
+    uncertainty: SectionUncertainty | None = None
+    k1_change_lo_pct: float | None = None
+    k1_change_hi_pct: float | None = None
+    k1_change_scatter_pct: float | None = None
+    reasons: tuple[str, ...] = ()
 
     @property
     def damage_state(self) -> DamageState:
         """The state as an enum."""
         return DamageState[self.state.upper()]
+
+    @property
+    def yield_status(self) -> str:
+        """``"yielded"``, ``"not yielded"`` or ``"may have yielded"``.
+
+        A section reported as not yielded "may have yielded" when its ensemble gives a
+        probability of yielding of at least :data:`P_YIELD_LOW`.
+        """
+        if self.yielded:
+            return "yielded"
+        return "may have yielded" if _may_have_yielded(False, self.uncertainty) else "not yielded"
+
+    def rebased(self, baseline_k1: float, change_pct: float, baseline_label: str,
+                baseline_spread: Spread | None = None, *, event: bool = False
+                ) -> SectionResult:
+        """A copy with its ``k1`` change against a new baseline, and its state decided again.
+
+        Parameters
+        ----------
+        baseline_k1 : float
+            The baseline's ``k1``, N·m/rad.
+        change_pct : float
+            ``100 (k1 / baseline_k1 − 1)`` (:func:`k1_change_pct`).
+        baseline_label : str
+            What the baseline is (for the reason line).
+        baseline_spread : Spread, optional
+            The baseline identification's ``k1`` spread.
+        event : bool
+            The baseline is an earlier event: a ``k1`` loss beyond the scatter is cracking.
+        """
+        lo = hi = scatter = None
+        loss = None
+        u = self.uncertainty
+        if u is not None and u.members >= 2 and math.isfinite(self.k1) and u.k1.defined:
+            interval = k1_change_interval(self.k1, u.k1, baseline_k1, baseline_spread)
+            lo, hi, scatter = interval.lo_pct, interval.hi_pct, interval.scatter_pct
+            if event and k1_loss_beyond_scatter(change_pct, interval):
+                loss = k1_loss_reason(change_pct, interval, baseline_label)
+        state, reasons = decide_state(self.ductility_factor, self.yielded, u, k1_loss=loss)
+        return replace(self, k1_change_pct=float(change_pct), k1_change_lo_pct=lo,
+                       k1_change_hi_pct=hi, k1_change_scatter_pct=scatter,
+                       state=state.name.lower(), reasons=reasons)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain form for JSON (the uncertainty as a dict or None, reasons as a list)."""
+        d = asdict(self)
+        d["uncertainty"] = None if self.uncertainty is None else self.uncertainty.to_dict()
+        d["reasons"] = list(self.reasons)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SectionResult:
+        """Inverse of :meth:`to_dict`; a section written before uncertainty existed loads."""
+        d = dict(d)
+        if d.get("uncertainty") is not None:
+            d["uncertainty"] = SectionUncertainty.from_dict(d["uncertainty"])
+        d["reasons"] = tuple(d.get("reasons", ()))
+        return cls(**d)
 
 
 @dataclass(frozen=True)
@@ -116,6 +269,10 @@ class IdentificationResult:
     ``window_start_ns`` the same instant in ns since the Unix epoch (0 when not known).
     ``k1_baseline`` says what the sections' ``k1_change_pct`` is relative to ("" when not
     stated), ``software_version`` the pier_monitor version that wrote the result.
+    ``p_overall_state`` is, for an ensemble identification, the probability that the worst
+    section is intact, suspicious, damaged
+    (:func:`~pier_monitor.core.identify.uncertainty.overall_state_probabilities`); None for a
+    single identification.
     """
 
     pier_id: str
@@ -135,6 +292,13 @@ class IdentificationResult:
     window_start_ns: int = 0
     k1_baseline: str = ""
     software_version: str = ""
+    p_overall_state: tuple[float, float, float] | None = None
+
+    @property
+    def members(self) -> int:
+        """Number of ensemble members behind the sections (1: a single identification)."""
+        return max((s.uncertainty.members for s in self.sections
+                    if s.uncertainty is not None), default=1)
 
     @property
     def params(self) -> SpringParameters:
@@ -147,26 +311,53 @@ class IdentificationResult:
         """DF per section, shape (N,)."""
         return np.array([s.ductility_factor for s in self.sections])
 
-    def with_k1_baseline(self, baseline_k1: np.ndarray, label: str) -> "IdentificationResult":
-        """A copy whose ``k1_change_pct`` is relative to ``baseline_k1`` (N,), N·m/rad.
+    def with_k1_baseline(self, baseline_k1: np.ndarray, label: str, *,
+                         spreads: Sequence[Spread | None] | None = None,
+                         event: bool = False) -> IdentificationResult:
+        """A copy whose ``k1`` changes are relative to ``baseline_k1`` (N,), N·m/rad.
 
-        ``label`` names the baseline (e.g. ``"design values"``, ``"event run1"``).
+        ``label`` names the baseline (e.g. ``"design values"``, ``"event run1"``).  The
+        sections' change intervals and states are decided again (:meth:`SectionResult.rebased`):
+        ``spreads`` are the baseline's ``k1`` spreads per section (None where it has none),
+        ``event`` says that the baseline is an earlier event (:meth:`with_baseline`).
         """
         change = k1_change_pct(self.params.k1, baseline_k1)
-        sections = tuple(replace(s, k1_change_pct=float(d)) for s, d in zip(self.sections, change))
-        return replace(self, sections=sections, k1_baseline=label)
+        base = np.asarray(baseline_k1, dtype=float)
+        spreads = [None] * len(self.sections) if spreads is None else list(spreads)
+        if len(spreads) != len(self.sections):
+            raise InputDataError(f"baseline k1 spreads: expected {len(self.sections)}, got "
+                                 f"{len(spreads)}")
+        sections = tuple(s.rebased(float(b), float(d), label, sp, event=event)
+                         for s, b, d, sp in zip(self.sections, base, change, spreads))
+        overall = overall_state(sections) if self.success else self.overall_state
+        return replace(self, sections=sections, k1_baseline=label, overall_state=overall)
+
+    def with_baseline(self, baseline: IdentificationResult) -> IdentificationResult:
+        """A copy whose ``k1`` changes are relative to an earlier event's result.
+
+        The baseline's ``k1`` spreads widen the change intervals, and a loss beyond the two
+        identifications' scatter makes a section at least suspicious (cracking).
+        """
+        return self.with_k1_baseline(
+            baseline.params.k1, f"event {baseline.event_id}", event=True,
+            spreads=[None if s.uncertainty is None else s.uncertainty.k1
+                     for s in baseline.sections])
 
     def to_dict(self) -> dict[str, Any]:
         """Plain form for JSON."""
         d = asdict(self)
-        d["sections"] = [asdict(s) for s in self.sections]
+        d["sections"] = [s.to_dict() for s in self.sections]
+        if self.p_overall_state is not None:
+            d["p_overall_state"] = list(self.p_overall_state)
         return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "IdentificationResult":
-        """Inverse of :meth:`to_dict`."""
+    def from_dict(cls, d: dict[str, Any]) -> IdentificationResult:
+        """Inverse of :meth:`to_dict`; a result written before uncertainty existed loads."""
         d = dict(d)
-        d["sections"] = tuple(SectionResult(**s) for s in d["sections"])
+        d["sections"] = tuple(SectionResult.from_dict(s) for s in d["sections"])
+        if d.get("p_overall_state") is not None:
+            d["p_overall_state"] = tuple(float(v) for v in d["p_overall_state"])
         return cls(**d)
 
     def save_json(self, path: str | Path) -> Path:
@@ -187,12 +378,30 @@ class IdentificationResult:
 
 
 def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.ndarray,
-                   yielded: np.ndarray, baseline_k1: np.ndarray | None = None
+                   yielded: np.ndarray, baseline_k1: np.ndarray | None = None,
+                   uncertainty: Sequence[SectionUncertainty] | None = None
                    ) -> tuple[SectionResult, ...]:
     """Per-section results from identified parameters and reproduced angles (T, N).
 
     For springs that did not yield, ``fy`` is the lower bound ``max|f|`` the fit reports,
     so the DF given is an upper bound (about 1) and the identifiable flags are false.
+
+    Parameters
+    ----------
+    geometry : PierGeometry
+        The pier (N levels).
+    params : SpringParameters
+        The identified parameters (the ensemble's point estimate).
+    theta : ndarray, shape (T, N)
+        Reproduced spring angles, rad.
+    yielded : ndarray of bool, shape (N,)
+        Whether each spring is reported as yielded.
+    baseline_k1 : ndarray, shape (N,), optional
+        Reference of ``k1_change_pct``, N·m/rad (not an event: no cracking rule).
+    uncertainty : sequence of SectionUncertainty, optional
+        One per section from :func:`~pier_monitor.core.identify.uncertainty.summarize_members`;
+        the states are then decided by :func:`decide_state`.  With one member it is dropped:
+        the result is that of a single identification.
     """
     z = geometry.level_heights_m
     max_angle = np.max(np.abs(theta), axis=0)
@@ -200,18 +409,29 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
     # a spring that never yielded has θy >= max|θ|: its DF is at most 1, whatever fy bound the
     # fit could give (a poorly converged k1 would otherwise turn the bound into a large DF)
     df = np.where(np.asarray(yielded, dtype=bool), df, np.minimum(df, 1.0))
-    change = None if baseline_k1 is None else k1_change_pct(params.k1, baseline_k1)
+    if uncertainty is not None:
+        uncertainty = tuple(uncertainty)
+        if len(uncertainty) != geometry.n_levels:
+            raise InputDataError(f"uncertainty: expected {geometry.n_levels} sections, got "
+                                 f"{len(uncertainty)}")
+        if all(u.members < 2 for u in uncertainty):
+            uncertainty = None
     out = []
     for i in range(geometry.n_levels):
         y = bool(yielded[i])
+        u = None if uncertainty is None else uncertainty[i]
+        state, reasons = decide_state(float(df[i]), y, u)
         out.append(SectionResult(
             index=i, z_bottom_m=float(z[i]), z_top_m=float(z[i + 1]), k1=float(params.k1[i]),
             k2=float(params.k2[i]), fy=float(params.fy[i]), c=float(params.c[i]),
             yield_angle_rad=float(params.yield_angles[i]), max_angle_rad=float(max_angle[i]),
-            ductility_factor=float(df[i]),
-            state=classify_ductility(df[i]).name.lower(), yielded=y, k2_identifiable=y,
-            fy_identifiable=y, k1_change_pct=None if change is None else float(change[i])))
-    return tuple(out)
+            ductility_factor=float(df[i]), state=state.name.lower(), yielded=y,
+            k2_identifiable=y, fy_identifiable=y, uncertainty=u, reasons=reasons))
+    if baseline_k1 is None:
+        return tuple(out)
+    change = k1_change_pct(params.k1, baseline_k1)
+    base = np.asarray(baseline_k1, dtype=float)
+    return tuple(s.rebased(float(b), float(d), "baseline") for s, b, d in zip(out, base, change))
 
 
 def overall_state(sections: tuple[SectionResult, ...]) -> str:

@@ -1,0 +1,375 @@
+"""Uncertainty of an identification from an ensemble of members.
+
+An ensemble identification trains M members on the same window (different seeds); each
+member gives a parameter set, a ductility factor and a yield flag per section.  The scatter
+of the members is the identification's own uncertainty (the optimisation and the network's
+initialisation; not the model error).  This module summarises it:
+
+* :class:`Spread` — mean, standard deviation and the 90 % interval (5th to 95th percentile of
+  the members) of one quantity, in its SI unit;
+* :class:`SectionUncertainty` — the spreads of ``k1, k2, fy, c`` and DF of a section, the
+  probability that its spring yielded and the probability of each state;
+* :func:`summarize_members` — those from the members' arrays;
+  :func:`overall_state_probabilities` — the probability of each overall (worst) state;
+* :func:`k1_change_interval` — the 90 % interval of a ``k1`` change against a baseline and
+  the scatter of the two identifications combined;
+* :class:`MemberResponses` — the members' reproduced histories, for the figures' bands.
+
+A probability is the share of members: a member's state is its DF classified with the
+thresholds of :mod:`~pier_monitor.core.identify.states`, and a member whose spring did not
+yield is intact.  The decisions that use these numbers are in
+:mod:`~pier_monitor.core.identify.damage`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from pier_monitor.core.errors import InputDataError
+
+from .states import DamageState, member_states
+
+__all__ = [
+    "INTERVAL_PERCENTILES",
+    "K1ChangeInterval",
+    "MemberResponses",
+    "SectionUncertainty",
+    "Spread",
+    "k1_change_interval",
+    "overall_state_probabilities",
+    "summarize_members",
+]
+
+#: Percentiles of the members that bound the 90 % interval.
+INTERVAL_PERCENTILES = (5.0, 95.0)
+#: Order of the parameters along the last axis of the members' parameter array.
+PARAMETER_NAMES = ("k1", "k2", "fy", "c")
+
+
+@dataclass(frozen=True)
+class Spread:
+    """Mean, standard deviation and 90 % interval of one quantity over the members.
+
+    All four are in the quantity's SI unit; ``lo`` and ``hi`` are the 5th and 95th
+    percentiles of the members (linear interpolation), ``std`` the sample standard deviation
+    (``ddof = 1``).  NaN throughout when no member carries the quantity (e.g. ``k2`` of a
+    spring that yielded in no member).
+    """
+
+    mean: float
+    std: float
+    lo: float
+    hi: float
+
+    @classmethod
+    def of(cls, values: np.ndarray) -> Spread:
+        """The spread of finite member values, shape (M,); NaN when there are none.
+
+        With one value the standard deviation is NaN (``ddof = 1``).
+        """
+        v = np.asarray(values, dtype=float)
+        if v.size == 0:
+            return cls.undefined()
+        lo, hi = np.percentile(v, INTERVAL_PERCENTILES)
+        std = float(np.std(v, ddof=1)) if v.size > 1 else math.nan
+        return cls(mean=float(np.mean(v)), std=std, lo=float(lo), hi=float(hi))
+
+    @classmethod
+    def undefined(cls) -> Spread:
+        """A spread of no values (all NaN)."""
+        return cls(math.nan, math.nan, math.nan, math.nan)
+
+    @property
+    def defined(self) -> bool:
+        """Whether the spread has values (its interval is finite)."""
+        return math.isfinite(self.lo) and math.isfinite(self.hi)
+
+    def straddles(self, threshold: float) -> bool:
+        """Whether the 90 % interval holds ``threshold`` with values on both sides of it.
+
+        ``lo < threshold <= hi``: the members do not agree on which side of a class limit
+        (``value >= threshold``) the quantity lies.
+        """
+        return self.defined and self.lo < threshold <= self.hi
+
+    def relative_std(self) -> float:
+        """``std / |mean|`` (dimensionless); NaN when undefined or the mean is zero."""
+        return self.std / abs(self.mean) if self.defined and self.mean != 0 else math.nan
+
+
+@dataclass(frozen=True)
+class SectionUncertainty:
+    """Uncertainty of one section from an ensemble of ``members`` identifications.
+
+    Attributes
+    ----------
+    k1, k2, fy, c : Spread
+        N·m/rad, N·m/rad, N·m, N·m·s/rad.  ``k2`` and ``fy`` are over the members whose
+        spring yielded only (they are not identifiable in the others).
+    ductility_factor : Spread
+        Dimensionless; a member whose spring did not yield counts with its DF bound, at
+        most 1.
+    p_yielded : float
+        Share of the members whose spring yielded.
+    p_state : (float, float, float)
+        Probability of intact, suspicious and damaged: the share of the members in each
+        state (a member that did not yield is intact); sums to 1.
+    members : int
+        Number of members.
+    """
+
+    k1: Spread
+    k2: Spread
+    fy: Spread
+    c: Spread
+    ductility_factor: Spread
+    p_yielded: float
+    p_state: tuple[float, float, float]
+    members: int
+
+    @property
+    def most_probable_state(self) -> DamageState:
+        """The state of the largest probability (a tie goes to the worse state)."""
+        p = np.asarray(self.p_state)
+        return DamageState(int(np.flatnonzero(p == p.max())[-1]))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain form for JSON (spreads as dicts, ``p_state`` as a list)."""
+        d = asdict(self)
+        d["p_state"] = list(self.p_state)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SectionUncertainty:
+        """Inverse of :meth:`to_dict`."""
+        spreads = {k: Spread(**d[k]) for k in (*PARAMETER_NAMES, "ductility_factor")}
+        # a malformed file raises KeyError / TypeError / ValueError, as for the other fields
+        p_intact, p_suspicious, p_damaged = (float(v) for v in d["p_state"])
+        return cls(**spreads, p_yielded=float(d["p_yielded"]),
+                   p_state=(p_intact, p_suspicious, p_damaged), members=int(d["members"]))
+
+
+def _check_members(params: np.ndarray, ductility: np.ndarray, yielded: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    params = np.asarray(params, dtype=float)
+    ductility = np.asarray(ductility, dtype=float)
+    yielded = np.asarray(yielded)
+    if params.ndim != 3 or params.shape[2] != 4 or params.shape[0] < 1:
+        raise InputDataError(f"member parameters: expected shape (M, N, 4) [k1, k2, fy, c] "
+                             f"with M >= 1, got {params.shape}")
+    m, n, _ = params.shape
+    for name, arr in (("member ductility factors", ductility), ("member yield flags", yielded)):
+        if arr.shape != (m, n):
+            raise InputDataError(f"{name}: expected shape ({m}, {n}) like the parameters, "
+                                 f"got {arr.shape}")
+    if yielded.dtype != bool:
+        raise InputDataError(f"member yield flags: expected booleans, got {yielded.dtype}")
+    for j, name in enumerate(PARAMETER_NAMES):
+        values = params[:, :, j]
+        ok = np.isfinite(values) & ((values >= 0) if name == "k2" else (values > 0))
+        # k2 and fy of a spring that did not yield are not identified: not checked
+        bad = ~ok & yielded if name in ("k2", "fy") else ~ok
+        if np.any(bad):
+            i, k = np.argwhere(bad)[0]
+            raise InputDataError(f"member {i}, section {k + 1}: {name} = "
+                                 f"{float(values[i, k])!r}; expected a finite positive value")
+    bad = ~(np.isfinite(ductility) & (ductility >= 0))
+    if np.any(bad):
+        i, k = np.argwhere(bad)[0]
+        raise InputDataError(f"member {i}, section {k + 1}: ductility factor = "
+                             f"{float(ductility[i, k])!r}; expected a finite value >= 0")
+    return params, ductility, yielded
+
+
+def _probabilities(codes: np.ndarray) -> tuple[float, float, float]:
+    counts = np.bincount(codes, minlength=3)[:3] / codes.size
+    return float(counts[0]), float(counts[1]), float(counts[2])
+
+
+def summarize_members(params: np.ndarray, ductility: np.ndarray, yielded: np.ndarray
+                      ) -> tuple[SectionUncertainty, ...]:
+    """Per-section uncertainty from the members of an ensemble identification.
+
+    Parameters
+    ----------
+    params : ndarray, shape (M, N, 4)
+        ``[k1, k2, fy, c]`` of each of M members and N sections (N·m/rad, N·m/rad, N·m,
+        N·m·s/rad).  ``k2`` and ``fy`` of a member whose spring did not yield are ignored
+        (they may be NaN).
+    ductility : ndarray, shape (M, N)
+        Each member's ductility factor (dimensionless, finite).  Where the spring did not
+        yield it is a bound and is capped at 1, as in
+        :func:`~pier_monitor.core.identify.damage.build_sections`.
+    yielded : ndarray of bool, shape (M, N)
+        Whether each member's spring yielded.
+
+    Returns
+    -------
+    tuple of SectionUncertainty
+        One per section, bottom to top.
+
+    Raises
+    ------
+    InputDataError
+        Naming the array and its shape, or the member, section and quantity that is not
+        finite and positive.
+    """
+    params, ductility, yielded = _check_members(params, ductility, yielded)
+    m, n, _ = params.shape
+    df = np.where(yielded, ductility, np.minimum(ductility, 1.0))
+    codes = member_states(df, yielded)
+    out = []
+    for k in range(n):
+        y = yielded[:, k]
+        out.append(SectionUncertainty(
+            k1=Spread.of(params[:, k, 0]), k2=Spread.of(params[y, k, 1]),
+            fy=Spread.of(params[y, k, 2]), c=Spread.of(params[:, k, 3]),
+            ductility_factor=Spread.of(df[:, k]), p_yielded=float(np.mean(y)),
+            p_state=_probabilities(codes[:, k]), members=m))
+    return tuple(out)
+
+
+def overall_state_probabilities(ductility: np.ndarray, yielded: np.ndarray
+                                ) -> tuple[float, float, float]:
+    """Probability that the pier's worst section is intact, suspicious, damaged.
+
+    Each member's overall state is the worst of its sections' states (a spring that did not
+    yield is intact); the probabilities are the shares of the members.
+
+    Parameters
+    ----------
+    ductility : ndarray, shape (M, N)
+        Member ductility factors (dimensionless, finite).
+    yielded : ndarray of bool, shape (M, N)
+        Member yield flags.
+
+    Raises
+    ------
+    InputDataError
+        If the shapes differ or a ductility factor is not finite.
+    """
+    ductility = np.asarray(ductility, dtype=float)
+    yielded = np.asarray(yielded)
+    if ductility.ndim != 2 or ductility.shape[0] < 1 or yielded.shape != ductility.shape \
+            or yielded.dtype != bool:
+        raise InputDataError(f"member ductility factors and yield flags: expected shapes "
+                             f"(M, N) and booleans, got {ductility.shape} and {yielded.shape} "
+                             f"{yielded.dtype}")
+    if not np.all(np.isfinite(ductility)):
+        i, k = np.argwhere(~np.isfinite(ductility))[0]
+        raise InputDataError(f"member {i}, section {k + 1}: ductility factor = "
+                             f"{float(ductility[i, k])!r}; expected a finite value")
+    return _probabilities(member_states(ductility, yielded).max(axis=1))
+
+
+@dataclass(frozen=True)
+class K1ChangeInterval:
+    """90 % interval of a ``k1`` change against a baseline, and the identification scatter.
+
+    ``lo_pct``, ``hi_pct``: bounds of the change, % (``100 (k1 / k1_baseline − 1)``);
+    ``scatter_pct``: the standard deviation of the change that the two identifications'
+    own scatter gives (their relative ``k1`` standard deviations combined), percentage
+    points.
+    """
+
+    lo_pct: float
+    hi_pct: float
+    scatter_pct: float
+
+
+def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
+                       baseline_spread: Spread | None = None) -> K1ChangeInterval:
+    """The 90 % interval of the change of ``k1`` against a baseline.
+
+    The change is ``100 (r − 1)`` with ``r = k1 / baseline_k1`` (the reported values).  Its
+    interval combines, in quadrature, the relative distances of each spread's 90 % bounds
+    from its mean: ``r_lo = r (1 − √(a_lo² + b_hi²))`` and ``r_hi = r (1 + √(a_hi² +
+    b_lo²))``, where ``a`` is this identification's (``(mean − lo) / mean``,
+    ``(hi − mean) / mean``) and ``b`` the baseline's, zero without a baseline spread (design
+    values).  Without a baseline spread the interval is this identification's ``k1``
+    interval relative to the baseline.  The scatter is ``100 r √(s² + s_b²)`` with ``s``,
+    ``s_b`` the relative standard deviations.
+
+    Parameters
+    ----------
+    k1 : float
+        This identification's ``k1``, N·m/rad.
+    spread : Spread
+        The members' spread of it.
+    baseline_k1 : float
+        The baseline's ``k1``, N·m/rad (finite, positive).
+    baseline_spread : Spread, optional
+        The baseline identification's spread of ``k1``; None for a baseline without one.
+
+    Raises
+    ------
+    InputDataError
+        If a ``k1`` is not finite and positive or ``spread`` is undefined.
+    """
+    if not (math.isfinite(k1) and k1 > 0 and math.isfinite(baseline_k1) and baseline_k1 > 0):
+        raise InputDataError(f"k1 change interval: expected finite positive k1 and baseline k1 "
+                             f"in N*m/rad, got {k1!r} and {baseline_k1!r}")
+    if not spread.defined or not spread.mean > 0:
+        raise InputDataError(f"k1 change interval: the spread of k1 is undefined ({spread})")
+
+    def rel(s: Spread | None) -> tuple[float, float, float]:
+        if s is None or not s.defined or not s.mean > 0:
+            return 0.0, 0.0, 0.0
+        std = s.relative_std()
+        return ((s.mean - s.lo) / s.mean, (s.hi - s.mean) / s.mean,
+                std if math.isfinite(std) else 0.0)
+
+    a_lo, a_hi, a_s = rel(spread)
+    b_lo, b_hi, b_s = rel(baseline_spread)
+    r = k1 / baseline_k1
+    return K1ChangeInterval(lo_pct=100.0 * (r * (1.0 - math.hypot(a_lo, b_hi)) - 1.0),
+                            hi_pct=100.0 * (r * (1.0 + math.hypot(a_hi, b_lo)) - 1.0),
+                            scatter_pct=100.0 * r * math.hypot(a_s, b_s))
+
+
+@dataclass(frozen=True, eq=False)
+class MemberResponses:
+    """The members' reproduced histories, time-first after the member axis, SI.
+
+    ``theta`` (M, T, N) spring angles, rad; ``moment`` (M, T, N) restoring moments, N·m;
+    optionally ``x`` (M, T, N) relative displacements, m, and ``a`` (M, T, N) relative
+    accelerations, m/s².  The figures draw their band (5th to 95th percentile over the
+    members at each time) around the reproduced response.
+    """
+
+    theta: np.ndarray
+    moment: np.ndarray
+    x: np.ndarray | None = None
+    a: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        theta = np.asarray(self.theta, dtype=float)
+        if theta.ndim != 3 or theta.shape[0] < 1:
+            raise InputDataError(f"member theta: expected shape (M, T, N), got {theta.shape}")
+        for name in ("theta", "moment", "x", "a"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            arr = np.array(value, dtype=float)
+            if arr.shape != theta.shape:
+                raise InputDataError(f"member {name}: expected shape {theta.shape} like theta, "
+                                     f"got {arr.shape}")
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    @property
+    def members(self) -> int:
+        """Number of members M."""
+        return int(self.theta.shape[0])
+
+    def band(self, name: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """5th and 95th percentile over the members of ``name``, each (T, N); None if absent."""
+        value = getattr(self, name)
+        if value is None:
+            return None
+        lo, hi = np.percentile(value, INTERVAL_PERCENTILES, axis=0)
+        return lo, hi
