@@ -53,6 +53,16 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of ``pier-monitor``."""
     parser = argparse.ArgumentParser(
@@ -179,6 +189,9 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--train-seed", type=int, default=0, help="seed of the training")
     parser.add_argument("--max-epochs", type=int, default=None,
                         help="epoch limit of the training (default: the benchmarked setting)")
+    parser.add_argument("--members", type=_positive_int, default=None,
+                        help="ensemble members identified together, for the uncertainty of every "
+                             f"number (default {PinnSettings().members}; 1: no uncertainty)")
     parser.add_argument("--no-progress", action="store_true",
                         help="no training progress (a bar on a terminal, else a line every 10 s)")
 
@@ -186,6 +199,8 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
 def _settings(args: argparse.Namespace) -> PinnSettings:
     """The training settings of the command line's options."""
     settings = PinnSettings(device=args.device, seed=args.train_seed)
+    if args.members is not None:
+        settings.members = args.members
     if args.max_epochs is not None:
         settings.max_epochs = args.max_epochs
         settings.min_epochs = min(settings.min_epochs, args.max_epochs)

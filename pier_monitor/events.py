@@ -108,6 +108,7 @@ def identify_window(window: MeasuredWindow, settings: PinnSettings, store: Resul
         store.record_failure(failed)
         return EventOutcome(window=window, result=failed, out_dir=out_dir,
                             window_file=window_file, paths=None)
-    written = write_results(run, window, out_dir, baseline=baseline, figures=figures)
+    written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
+                            members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,
                         window_file=window_file, paths=written.paths)

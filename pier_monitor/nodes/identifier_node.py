@@ -61,7 +61,7 @@ __all__ = ["IdentifierNode", "main", "DEVICES"]
 DEVICES = ("auto", "cpu", "cuda")
 #: Parameters that are PinnSettings fields of the same name.
 _SETTINGS = ("device", "seed", "max_epochs", "min_epochs", "patience", "pair_stride", "hidden",
-             "layers", "lr_network", "lr_params")
+             "layers", "lr_network", "lr_params", "members")
 
 
 class IdentifierNode(Node):
@@ -94,6 +94,8 @@ class IdentifierNode(Node):
                 lo=1e-9, hi=1.0)
         declare(self, "lr_params", d.lr_params, "Adam learning rate of the log-parameters",
                 lo=1e-9, hi=1.0)
+        declare(self, "members", d.members, "Ensemble members identified together (the "
+                "uncertainty of every number; 1: none)", lo=1, hi=1024)
         declare(self, "progress_every", 10, "Publish progress every this many epochs",
                 unit="epochs", lo=1, hi=100_000)
         declare(self, "write_figures", True, "Also write the report figures (a few seconds "

@@ -49,7 +49,7 @@ from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import angle_matrix, damped_bilinear
 from pier_monitor.core.numerics import Detrend, cumulative_trapezoid
 
-__all__ = ["FieldSettings", "FieldFit", "fit_field"]
+__all__ = ["FieldSettings", "FieldFit", "FieldMembers", "fit_field"]
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,29 @@ class FieldSettings:
 
 
 @dataclass(frozen=True)
+class FieldMembers:
+    """An ensemble around a field reconstruction (M members; member 0 the fit itself).
+
+    Attributes
+    ----------
+    params : ndarray, shape (M, N, 4)
+        ``k1, k2, fy, c`` of each member (SI); ``fy`` of a spring that did not yield is the
+        lower bound, its largest moment.
+    theta, moment : ndarray, shape (M, T, N)
+        Each member's angles (rad) and spring moments (N·m).
+    yielded : ndarray of bool, shape (M, N)
+    ductility : ndarray, shape (M, N)
+        Ductility factors (at most 1 where the member's spring did not yield).
+    """
+
+    params: np.ndarray
+    theta: np.ndarray
+    moment: np.ndarray
+    yielded: np.ndarray
+    ductility: np.ndarray
+
+
+@dataclass(frozen=True)
 class FieldFit:
     """What the field reconstruction found.
 
@@ -120,6 +143,8 @@ class FieldFit:
     misfit : ndarray, shape (N,)
         RMS of the displacement residual of each measured level over the RMS of its
         measured (detrended) displacement; NaN where not measured.
+    members : FieldMembers or None
+        The ensemble, when one was asked for.
     """
 
     params: SpringParameters
@@ -131,6 +156,7 @@ class FieldFit:
     x: np.ndarray
     v: np.ndarray
     misfit: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    members: FieldMembers | None = None
 
 
 class _Problem:
@@ -269,7 +295,8 @@ def _bounds(p: np.ndarray, f_max: np.ndarray, width_k1: float) -> tuple[np.ndarr
 _X_SCALE = np.array([0.01, 0.1, 0.02, 0.1, 0.05])
 
 
-def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None) -> FieldFit:
+def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
+              members: int = 1, seed: int = 0) -> FieldFit:
     """Identify the springs of a window measured by a field network (see the module doc).
 
     Parameters
@@ -279,6 +306,11 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None) -> 
         displacement sensors.  The structure should be at rest at the first sample (the
         ingest pads windows with the quiet lead-in).
     settings : FieldSettings, optional
+    members : int
+        With more than one, also members drawn from the fit's linearised posterior
+        (:class:`FieldMembers`; member 0 is the fit itself).
+    seed : int
+        Seed of those draws.
 
     Raises
     ------
@@ -388,5 +420,49 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None) -> 
     res = pb.detrend(xa + eps * (xa + pb.x_g[:, None])) - pb.x_int
     misfit = np.full(n, np.nan)
     misfit[pb.acc] = np.sqrt(np.mean(res ** 2, axis=0)) / pb.scale
+    ensemble = None
+    if members > 1:
+        ensemble = _laplace_members(pb, sol, lo, hi, yielded, members, seed)
     return FieldFit(params=params, stages=stages, yielded=yielded, gains=gains, theta=theta,
-                    moment=moment, x=x, v=v, misfit=misfit)
+                    moment=moment, x=x, v=v, misfit=misfit, members=ensemble)
+
+
+def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
+                     hi: np.ndarray, yielded: np.ndarray, members: int, seed: int
+                     ) -> FieldMembers:
+    """Members drawn from the linearised posterior of the joint fit (member 0: the fit).
+
+    The covariance is ``s² (JᵀJ)⁻¹`` of the residuals' Jacobian at the solution, with ``s²``
+    the reduced chi-square when the fit is worse than its stated misfit floor (never less
+    than one).  Each member's springs and gains give its own angles and moments; a spring
+    the fit found elastic stays elastic in every member.
+    """
+    n = pb.n
+    jac = np.asarray(sol.jac)
+    dof = max(sol.fun.size - sol.x.size, 1)
+    s2 = max(2.0 * float(sol.cost) / dof, 1.0)
+    cov = s2 * np.linalg.pinv(jac.T @ jac)
+    w, vec = np.linalg.eigh(0.5 * (cov + cov.T))
+    root = vec * np.sqrt(np.clip(w, 0.0, None))
+    rng = np.random.default_rng(seed)
+    draws = sol.x + rng.standard_normal((members, sol.x.size)) @ root.T
+    draws[0] = sol.x
+    draws = np.clip(draws, lo, hi)
+    params = np.empty((members, n, 4))
+    theta = np.empty((members, pb.t_len, n))
+    moment = np.empty_like(theta)
+    for m, z in enumerate(draws):
+        p = z[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
+        p[~yielded, 2] = np.log(10.0 * pb.f_max[~yielded])
+        p[~yielded, 4] = 0.0
+        g = pb.moments(z[_COLUMNS * n:])
+        theta[m], moment[m] = pb.angles(p, g)
+        k1 = np.exp(p[:, 0])
+        params[m] = np.column_stack([k1, k1 * np.exp(p[:, 1]), np.exp(p[:, 2]), np.exp(p[:, 3])])
+        params[m, ~yielded, 2] = np.abs(g[:, ~yielded]).max(axis=0)
+    reached = np.abs(moment).max(axis=1) > params[..., 2] * (1.0 - np.abs(draws[:, 4:_COLUMNS * n:_COLUMNS]))
+    member_yielded = yielded & reached
+    ductility = np.abs(theta).max(axis=1) / (params[..., 2] / params[..., 0])
+    ductility = np.where(member_yielded, ductility, np.minimum(ductility, 1.0))
+    return FieldMembers(params=params, theta=theta, moment=moment, yielded=member_yielded,
+                        ductility=ductility)
