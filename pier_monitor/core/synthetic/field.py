@@ -41,13 +41,16 @@ from pier_monitor.core.resources import find_config_file
 from pier_monitor.core.synthetic.layouts import layout_config
 from pier_monitor.core.synthetic.measurement import SensorImperfections
 from pier_monitor.core.synthetic.shaking_table import (DEFAULT_START_NS, RunSpec, Scenario,
-                                                       SyntheticRecording, generate_recording)
+                                                       SyntheticRecording, edefense_scenario,
+                                                       generate_recording)
 
-__all__ = ["FieldPier", "FIELD_PIERS", "SHAKINGS", "field_pier", "field_scenario",
-           "field_recording", "field_case_recording"]
+__all__ = ["FieldPier", "FIELD_PIERS", "SHAKINGS", "SCENARIO_NAMES", "field_pier",
+           "field_scenario", "named_scenario", "field_recording", "field_case_recording"]
 
 #: Shakings of :func:`field_scenario`.
 SHAKINGS = ("strong", "just_yield")
+#: Scenarios by name (:func:`named_scenario`): the two-run shaking-table test and the shakings.
+SCENARIO_NAMES = ("edefense", *SHAKINGS)
 _RECORD_S = 40.0  # the documented ductility factors hold for this record length
 
 
@@ -130,6 +133,23 @@ def field_scenario(pier: str = "edefense", shaking: str = "strong", *, lead_s: f
         raise InputDataError(f"shaking: expected one of {list(SHAKINGS)}, got {shaking!r}")
     run = field_pier(pier).runs[shaking]
     return Scenario(runs=(run,), lead_s=lead_s, tail_s=tail_s, start_ns=start_ns)
+
+
+def named_scenario(name: str, pier_id: str) -> Scenario:
+    """A scenario by name: ``edefense`` (the two-run shaking-table test of the E-Defense-like
+    pier, :func:`~pier_monitor.core.synthetic.shaking_table.edefense_scenario`), or a shaking
+    of :func:`field_scenario` for the field pier ``pier_id``.
+
+    Raises
+    ------
+    InputDataError
+        If the name is unknown, or the pier has no field scenario.
+    """
+    if name == "edefense":
+        return edefense_scenario()
+    if name not in SHAKINGS:
+        raise InputDataError(f"scenario: expected one of {list(SCENARIO_NAMES)}, got {name!r}")
+    return field_scenario(pier_id, name)
 
 
 def field_recording(config: PierConfig, layout: str, scenario: Scenario, *, gnss: bool = False,
