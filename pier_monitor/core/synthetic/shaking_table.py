@@ -46,7 +46,7 @@ import json
 import re
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 from scipy import signal
@@ -535,7 +535,7 @@ def _timeline(scenario: Scenario, rate: float, run_seqs: list[np.random.SeedSequ
 
 
 def _motion_vectors(principal_direction_deg: float, table: np.ndarray, table_vel: np.ndarray,
-                    rel: Mapping[str, np.ndarray]):
+                    rel: Mapping[str, np.ndarray]) -> Callable[[str, int], np.ndarray]:
     """A function ``(kind, level) -> (T, 3)``: the true motion of a level, pier frame, SI.
 
     Accelerometers sense the absolute acceleration, velocity meters the absolute velocity,
