@@ -313,6 +313,11 @@ def test_field_case_recording_is_a_field_network_with_imperfect_sensors():
     ideal = field_case_recording("table1", "sparse", gnss=True, shaking="just_yield", seed=2,
                                  imperfections=False)
     assert ideal.truth.sensor_errors == {}
+    level = SensorImperfections(tilt_sd_deg=0.0, acc_bias_sd_mps2=0.0)  # gains and azimuths
+    leveled = field_case_recording("table1", "sparse", shaking="just_yield", seed=2,
+                                   imperfections=level)
+    assert all(e.tilt_deg == (0.0, 0.0) and not any(e.bias)
+               for e in leveled.truth.sensor_errors.values())
     with pytest.raises(InputDataError, match="no field scenario for pier 'pier9'"):
         field_case_recording("pier9", "accel")
     with pytest.raises(InputDataError, match="shaking: expected one of"):

@@ -186,7 +186,8 @@ def field_recording(config: PierConfig, layout: str, scenario: Scenario, *, gnss
 
 
 def field_case_recording(pier: str, layout: str, gnss: bool = False, shaking: str = "strong",
-                         seed: int = 0, *, imperfections: bool = True) -> SyntheticRecording:
+                         seed: int = 0, *, imperfections: SensorImperfections | bool = True
+                         ) -> SyntheticRecording:
     """One case of the field benchmark, in memory: the recording and its ground truth.
 
     Parameters
@@ -201,8 +202,9 @@ def field_case_recording(pier: str, layout: str, gnss: bool = False, shaking: st
         The earthquake (:func:`field_scenario`).
     seed : int
         Noise seed: ambient motion, sensor noise and sensor errors.
-    imperfections : bool
-        Imperfect sensors (the default :class:`SensorImperfections`); ``False``: ideal ones.
+    imperfections : SensorImperfections or bool
+        The sensors' errors: ``True`` the default :class:`SensorImperfections`, ``False``
+        ideal sensors, or a :class:`SensorImperfections` of their own (e.g. no tilt or bias).
 
     Returns
     -------
@@ -212,6 +214,7 @@ def field_case_recording(pier: str, layout: str, gnss: bool = False, shaking: st
     """
     spec = field_pier(pier)
     config = load_config(find_config_file(spec.config_file))
+    if isinstance(imperfections, bool):
+        imperfections = SensorImperfections() if imperfections else None
     return field_recording(config, layout, field_scenario(spec.name, shaking), gnss=gnss,
-                           seed=seed, imperfections=SensorImperfections() if imperfections
-                           else None)
+                           seed=seed, imperfections=imperfections)
