@@ -164,7 +164,12 @@ def test_simulate_rejects_field_options_that_do_not_apply(tmp_path, capsys):
     assert main(["simulate", "--out", str(tmp_path / "c"), "--layout", "accel", "--pier",
                  str(find_config_file("table1.yaml")), "--scenario", "edefense"]) == 2
     assert "k1_factors: expected 6" in capsys.readouterr().err
-    assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()
+    assert main(["simulate", "--out", str(tmp_path / "d"), "--layout", "accel", "--layout",
+                 "sparse"]) == 2
+    assert "one --layout for a bag, got ['accel', 'sparse']" in capsys.readouterr().err
+    assert main(["simulate", "--out", str(tmp_path / "e"), "--fleet", "2", "--gnss"]) == 2
+    assert "apply to one bag" in capsys.readouterr().err
+    assert not any((tmp_path / name).exists() for name in "bcde")
 
 
 # --- standard tools read the plain mcap ------------------------------------------------------

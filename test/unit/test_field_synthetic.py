@@ -14,6 +14,7 @@ from pier_monitor.core.ingest.recording import NS_PER_S
 from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml, load_config
 from pier_monitor.core.model.units import G_STANDARD
 from pier_monitor.core.resources import find_config_file
+from pier_monitor.core.synthetic.fleet import fleet_piers
 from pier_monitor.core.synthetic.field import (FIELD_PIERS, field_case_recording, field_scenario,
                                                field_recording)
 from pier_monitor.core.synthetic.layouts import (GNSS_SENSOR_ID, layout_config,
@@ -330,3 +331,14 @@ def test_field_recording_takes_any_scenario_and_layout(edefense):
     assert {s.kind for s in case.recording.config.sensors} == {"acceleration"}
     assert case.truth.anti_alias and case.truth.sensor_errors == {}
     assert [r.name for r in case.truth.runs] == ["just_yield"]
+
+
+def test_fleet_piers_take_the_field_layouts():
+    full, accel, sparse = fleet_piers(3, 0, layouts=("full", "accel", "sparse"))
+    assert {s.kind for s in full.config.sensors} == {"acceleration", "displacement", "velocity"}
+    for pier, layout in ((accel, "accel"), (sparse, "sparse")):
+        assert {s.kind for s in pier.config.sensors} == {"acceleration"}
+        assert pier.layout == layout and layout in pier.config.description
+    top = sparse.config.n_levels
+    assert {s.level for s in sparse.config.sensors} == {0, mid_height_level(sparse.config), top}
+    assert {s.level for s in accel.config.sensors} == set(range(accel.config.n_levels + 1))
