@@ -64,8 +64,8 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
         if a_xy is not None:
             a_abs = a_xy @ e_p
             a_rel[:, lv - 1] = a_abs - a_abs[lead].mean() - ag
-            wires = _without_disagreeing_wires(cleaned, lv, sl, a_xy - ag_xy, rate, settings,
-                                               report)
+            wires = _without_disagreeing_wires(cleaned, lv, sl, a_xy - ag_xy, ag_xy, rate,
+                                               settings, report)
         wire = level_motion(wires, "displacement", lv, sl, False, counts)
         if wire is not None:
             wire = wire @ e_p
@@ -168,11 +168,12 @@ def _integrate_highpass(acc: np.ndarray, rate: float, highpass_hz: float
 
 
 def _without_disagreeing_wires(cleaned: list[CleanSensor], level: int, sl: slice,
-                               a_rel_xy: np.ndarray, rate: float, settings: IngestSettings,
-                               report: IngestReport) -> list[CleanSensor]:
+                               a_rel_xy: np.ndarray, ag_xy: np.ndarray, rate: float,
+                               settings: IngestSettings, report: IngestReport
+                               ) -> list[CleanSensor]:
     """``cleaned`` with the displacement channels of a level that disagree with its
     acceleration over ``sl`` made unusable there (copies; the originals stay as they are)."""
-    flagged = check_displacement(cleaned, level, sl, a_rel_xy, rate, settings)
+    flagged = check_displacement(cleaned, level, sl, a_rel_xy, ag_xy, rate, settings)
     if not flagged:
         return cleaned
     out = list(cleaned)
