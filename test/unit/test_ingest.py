@@ -329,3 +329,27 @@ def test_rate_contradicting_the_configuration_is_reported(synthetic):
     windows, report = ingest_recording(modified)
     assert "rate_mismatch" in report.codes("l1_acc_n")
     assert len(windows) == 2
+
+
+def test_field_layouts_give_windows_with_their_coverage_and_gnss_at_its_own_rate():
+    """Accelerometers only (plus a 10 Hz GNSS at the top): every level's acceleration, the top's
+    displacement from the GNSS fused with its acceleration; the stream gives the same window."""
+    from pier_monitor.core.synthetic.field import field_case_recording
+
+    rec = field_case_recording("edefense", "accel", True, "strong", 0).recording
+    windows, report = ingest_recording(rec)
+    assert [o.status for o in report.outcomes] == ["ingested"]
+    (w,) = windows
+    assert w.coverage.acceleration.all()
+    assert w.coverage.displacement.tolist() == [False, False, False, True]
+    assert 0 < w.noise.x[3] < 0.005  # fused: better than the GNSS's 5 mm alone
+    assert "rate_mismatch" not in report.codes()
+    stream = StreamIngest(rec.config)
+    got = []
+    for b0 in range(0, max(s.n_samples for s in rec.sensors.values()) + 400, 400):
+        for sid, s in rec.sensors.items():
+            sel = slice(np.searchsorted(s.time_ns, rec.start_ns + b0 * 5_000_000),
+                        np.searchsorted(s.time_ns, rec.start_ns + (b0 + 400) * 5_000_000))
+            got += stream.push(sid, s.time_ns[sel], s.data[sel], s.sample_index[sel])
+    got += stream.flush()
+    assert got == windows

@@ -278,6 +278,8 @@ def check_displacement(cleaned: list[CleanSensor], level: int, sl: slice,
     out = []
     for ch in chans:
         x = ch.sensor.values[sl, ch.column]
+        if not np.isfinite(x).all():
+            continue  # a slower sensor (GNSS): it is fused, not judged here
         meas = np.fft.rfft(signal.detrend(x) * taper)[band]
         pred = disp_xy @ ch.direction
         # gains: (1 + e_l) of the level's absolute motion, (1 + e_0) of the foundation's
