@@ -208,9 +208,9 @@ def bench_more() -> list[dict[str, Any]]:
 #: (the configuration's values are the truth): a design that is off, as in the field.
 TABLE1_DESIGN_FACTORS = {"k1": (0.85, 1.1, 1.2, 0.9, 1.15, 0.8), "k2": (1.2, 0.9, 0.8, 1.1, 1.0, 1.2),
                          "fy": (0.9, 1.15, 1.1, 0.85, 1.2, 0.9), "c": (1.3, 0.75, 1.2, 0.8, 1.25, 0.7)}
-#: The layouts of the field suite: (layout, GNSS at the top).
-FIELD_LAYOUTS = (("full", False), ("accel", False), ("accel", True), ("sparse", False),
-                 ("sparse", True))
+#: The layouts of the field suite: (layout, GNSS at the top, identification method).
+FIELD_LAYOUTS = (("full", False, "field"), ("full", False, "pinn"), ("accel", False, "auto"),
+                 ("accel", True, "auto"), ("sparse", False, "auto"), ("sparse", True, "auto"))
 
 
 def field_case(pier: str, layout: str, gnss: bool, shaking: str, seed: int
@@ -237,23 +237,45 @@ def field_case(pier: str, layout: str, gnss: bool, shaking: str, seed: int
 
 
 def bench_field(seeds: int = 5, piers: tuple[str, ...] = ("edefense", "table1"),
-                layouts: tuple[tuple[str, bool], ...] = FIELD_LAYOUTS,
+                layouts: tuple[tuple[str, bool, str], ...] = FIELD_LAYOUTS,
                 shakings: tuple[str, ...] = ("strong", "just_yield"),
-                settings: PinnSettings | None = None) -> list[dict[str, Any]]:
+                pinn_seeds: int = 1) -> list[dict[str, Any]]:
     """Every sensor layout on both piers under both shakings, ``seeds`` seeds each: synthetic
     recordings with imperfect sensors (gains 1 %, azimuths 0.5°, tilts, biases unknown to the
-    configuration), ingested and identified like a bag."""
+    configuration), ingested and identified like a bag.  The full layout also through the
+    PINN (``method="pinn"``, minutes per case on a CPU: ``pinn_seeds`` seeds)."""
     out = []
     for pier in piers:
-        for layout, gnss in layouts:
+        for layout, gnss, method in layouts:
             for shaking in shakings:
-                for seed in range(seeds):
+                for seed in range(pinn_seeds if method == "pinn" else seeds):
                     window, truth, theta = field_case(pier, layout, gnss, shaking, seed)
-                    run = identify(window, settings or PinnSettings(seed=seed))
-                    name = f"field_{pier}_{layout}{'+gnss' if gnss else ''}_{shaking}"
+                    run = identify(window, PinnSettings(seed=seed, method=method))
+                    name = (f"field_{pier}_{layout}{'+gnss' if gnss else ''}"
+                            f"{'' if method == 'auto' else '_' + method}_{shaking}")
                     out.append(score_run(name, run, truth, theta, seed=seed, pier=pier,
-                                         layout=layout, gnss=gnss, shaking=shaking,
+                                         layout=layout, gnss=gnss, method=method,
+                                         shaking=shaking,
                                          coverage_layout=window.coverage.layout))
+    return out
+
+
+def bench_coverage(seeds: int = 20, members: int = 32, first_seed: int = 100,
+                   layouts: tuple[tuple[str, bool], ...] = (("accel", False), ("sparse", False)),
+                   shakings: tuple[str, ...] = ("strong", "just_yield")
+                   ) -> list[dict[str, Any]]:
+    """Calibration of the intervals: field layouts on the E-Defense-style pier, ``seeds``
+    seeds (from ``first_seed``: seeds the field suite does not use) with ``members``-member
+    ensembles; ``coverage`` of every run says whether the 90 % intervals held the truth."""
+    out = []
+    for layout, gnss in layouts:
+        for shaking in shakings:
+            for seed in range(first_seed, first_seed + seeds):
+                window, truth, theta = field_case("edefense", layout, gnss, shaking, seed)
+                run = identify(window, PinnSettings(seed=seed, members=members))
+                name = f"coverage_edefense_{layout}{'+gnss' if gnss else ''}_{shaking}"
+                out.append(score_run(name, run, truth, theta, seed=seed, pier="edefense",
+                                     layout=layout, gnss=gnss, shaking=shaking))
     return out
 
 
@@ -340,6 +362,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "more": bench_more,
     "fleet": bench_fleet,
     "field": bench_field,
+    "coverage": bench_coverage,
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.
@@ -398,4 +421,39 @@ def format_table(results: list[dict[str, Any]]) -> str:
                     f"<=1 ({sp['true_df']:.3f})"
                 lines.append(f"  {sp['spring']:>2} " + " ".join(f"{c:>20}" for c in cells)
                              + f" {df:>16}")
+    if ident:
+        lines.append("")
+        lines.append(summarize_cases(ident))
+    return "\n".join(lines)
+
+
+def _mean(values: list[float | None]) -> float:
+    kept = [v for v in values if v is not None]
+    return float(np.mean(kept)) if kept else float("nan")
+
+
+def summarize_cases(results: list[dict[str, Any]]) -> str:
+    """Per case, means over its seeds: MAE (%) of k1 and c over the springs that truly
+    yield after every stage, of DF, and how many runs got every section's state right."""
+    cases: dict[str, list[dict[str, Any]]] = {}
+    for r in results:
+        cases.setdefault(r["case"], []).append(r)
+    lines = [f"{'case (means over seeds)':<44} {'runs':>4} {'states ok':>9} {'DF%':>6} "
+             f"{'wall_s':>7}  k1% / c% over the yielding springs, after each stage"]
+    for case, runs in cases.items():
+        stages = " ".join(
+            f"{name} {_mean([r['stages'][name]['k1_yielded'] for r in runs]):.2f}/"
+            f"{_mean([r['stages'][name]['c_yielded'] for r in runs]):.1f}"
+            for name in runs[0]["stages"])
+        final = (f"final {_mean([r['mae_pct']['k1_yielded'] for r in runs]):.2f}/"
+                 f"{_mean([r['mae_pct']['c_yielded'] for r in runs]):.1f}")
+        ok = sum(bool(r["states_ok"]) for r in runs)
+        cov = ""
+        if all("coverage" in r for r in runs):
+            cov = "  90 % intervals hold the truth: " + ", ".join(
+                f"{k} {100 * _mean([float(np.mean(r['coverage'][k])) for r in runs]):.0f} %"
+                for k in ("k1", "c", "df"))
+        lines.append(f"{case:<44} {len(runs):>4} {f'{ok}/{len(runs)}':>9} "
+                     f"{_mean([r['mae_pct']['df'] for r in runs]):>6.2f} "
+                     f"{_mean([r['wall_s'] for r in runs]):>7.1f}  {stages} | {final}{cov}")
     return "\n".join(lines)

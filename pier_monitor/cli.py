@@ -131,7 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="benchmarks against known truth",
                            description="Run benchmarks with fixed seeds; print a table.")
     bench.add_argument("--suite", action="append", default=None,
-                       help="suite to run (repeatable): solver, ingest, paper, more, fleet "
+                       help="suite to run (repeatable): solver, ingest, paper, more, fleet, field, coverage "
                             "(default: solver, ingest and paper)")
     bench.add_argument("--all", action="store_true",
                        help="every suite: adds noise 0.1/10 mgal, a long-duration record and "
@@ -211,13 +211,18 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--members", type=_positive_int, default=None,
                         help="ensemble members identified together, for the uncertainty of every "
                              f"number (default {PinnSettings().members}; 1: no uncertainty)")
+    parser.add_argument("--method", choices=("auto", "pinn", "field"), default="auto",
+                        help="pinn: equation-error start and PINN (every level with a "
+                             "displacement and an acceleration); field: the reconstruction "
+                             "from the accelerations (uncalibrated field sensors); auto: pinn "
+                             "where every level is fully measured, else field")
     parser.add_argument("--no-progress", action="store_true",
                         help="no training progress (a bar on a terminal, else a line every 10 s)")
 
 
 def _settings(args: argparse.Namespace) -> PinnSettings:
     """The training settings of the command line's options."""
-    settings = PinnSettings(device=args.device, seed=args.train_seed)
+    settings = PinnSettings(device=args.device, seed=args.train_seed, method=args.method)
     if args.members is not None:
         settings.members = args.members
     if args.max_epochs is not None:

@@ -110,6 +110,14 @@ class PinnSettings:
         each from the start scattered by ``member_start_sd`` (a multi-start).
     member_start_sd : float
         Relative spread of the members' starting parameters (log-normal).
+    method : {"auto", "pinn", "field"}
+        ``pinn``: the equation-error start and the PINN, for windows with a displacement
+        and an acceleration at every level (a shaking table with calibrated sensors: the
+        most accurate there); ``field``: the reconstruction from the accelerations
+        (:func:`~pier_monitor.core.identify.field.fit_field`, measured displacements used
+        where there are any), for windows that start at rest; it tolerates uncalibrated
+        gains (about 1 %) and misaligned sensors, which bias the equation-error start.
+        ``auto``: ``pinn`` with every level fully measured, else ``field``.
     """
 
     pair_stride: int = 1
@@ -136,6 +144,7 @@ class PinnSettings:
     yield_score: float = 50.0
     field_settings: FieldSettings = field(default_factory=FieldSettings)
     members: int = 1
+    method: str = "auto"
     member_start_sd: float = 0.02
 
     def as_dict(self) -> dict[str, Any]:
@@ -162,6 +171,7 @@ class PinnSettings:
             ("patience", self.patience >= 1), ("tol", self.tol > 0),
             ("device", self.device in ("auto", "cpu", "cuda")),
             ("members", self.members >= 1),
+            ("method", self.method in ("auto", "pinn", "field")),
             ("member_start_sd", self.member_start_sd >= 0),
             ("param_rule", self.param_rule == "adam" or self.members == 1),
         ]
@@ -448,7 +458,11 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
     torch.manual_seed(settings.seed)
     np.random.seed(settings.seed)
     geometry = window.geometry
-    if not window.coverage.is_full:
+    if settings.method == "pinn" and not window.coverage.is_full:
+        raise IdentificationError(
+            f"window {window.event_id}: method 'pinn' needs a displacement and an acceleration "
+            f"at every level; this window's layout is {window.coverage.layout}")
+    if settings.method == "field" or not window.coverage.is_full:
         return _identify_field(window, settings, baseline_k1, t_start, device)
 
     # starting point

@@ -453,3 +453,36 @@ def test_record_topics_writes_an_mcap_that_decodes_with_mcap_ros2(
         fields_equal(want, got)
     node.destroy_publisher(state_pub)
     node.destroy_publisher(block_pub)
+
+
+def test_field_network_bag_live_equals_offline(listener, spawn_python, tmp_path):
+    """Accelerometers at every level and a 10 Hz GNSS receiver at the top, no wire: the live
+    graph reconstructs the springs exactly as ``identify`` does for the same bag."""
+    from pier_monitor.bags.synthetic_bag import write_synthetic_bag
+    from pier_monitor.pinn import PinnSettings
+    from pier_monitor.pipeline import identify_bag
+    from pier_monitor.report.results import damage_state_fields
+
+    info = write_synthetic_bag(tmp_path / "field.mcap", fmt="mcap", seed=2, layout="accel",
+                               gnss=True, scenario="just_yield", block_s=0.5)
+    offline = identify_bag(info.bag.path, tmp_path / "offline", settings=PinnSettings(**TINY))
+    coverage, = (ev.window.coverage for ev in offline.events)
+    assert coverage.acceleration.all() and coverage.displacement.tolist() == [False] * 3 + [True]
+    params = params_file(tmp_path / "params.yaml", tmp_path)
+    graph = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/start_graph.py"),
+                         "--namespace", NS, "--params-file", str(params))
+    graph.wait_for_line("READY", 30)
+    graph.wait_for_line("READY", 30)
+    player = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/replay_bag.py"),
+                          str(info.bag.path), "--rate", "8")
+    player.wait_for_line("SENT", 120)
+    assert player.stop() == 0
+    listener.wait(lambda: len(listener.states) >= 1, 90, "the damage state")
+    live, = listener.states
+    want = damage_state_fields(offline.events[0].result)
+    assert live.success and live.overall_state == want["overall_state"]
+    for got, exp in zip(live.sections, want["sections"], strict=True):
+        assert got.state == exp["state"]
+        for key in ("k1", "c", "ductility_factor"):
+            assert getattr(got, key) == pytest.approx(exp[key], rel=1e-6), key
+    assert interrupt(graph) == 0
