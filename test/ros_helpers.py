@@ -44,12 +44,18 @@ class RosProcess:
         self._pending = b""  # read from the pipe, not yet split into lines
         self.lines: list[str] = []
 
-    def wait_for_line(self, expected: str, timeout_s: float) -> str:
-        """Read stdout until a line starting with ``expected``; fail after ``timeout_s``."""
+    def wait_for_line(self, expected: str, timeout_s: float, *, anywhere: bool = False) -> str:
+        """Read stdout until a line starting with ``expected`` (holding it, with
+        ``anywhere``); fail after ``timeout_s``.  Lines read before stay in :attr:`lines`
+        and are searched too (with ``anywhere``)."""
+        if anywhere:
+            for line in self.lines:
+                if expected in line:
+                    return line
         deadline = time.monotonic() + timeout_s
         while (line := self._next_line(deadline)) is not None:
             self.lines.append(line)
-            if line.startswith(expected):
+            if line.startswith(expected) or (anywhere and expected in line):
                 return line
         pytest.fail(f"child process did not print {expected!r} within {timeout_s} s "
                     f"(exit code {self.popen.poll()}); its output:\n" + "\n".join(self.lines))
@@ -120,11 +126,13 @@ def assert_fields_equal(expected: Any, actual: Any, path: str = "msg") -> None:
 def check_markers(markers: Any, result: Any) -> None:
     """Cylinders and labels of a decoded MarkerArray against a result's sections.
 
-    Colours: intact green, suspicious amber, damaged red, unknown grey; labels
-    ``S<n> <state> DF <DF> k1 <change> %``.
+    Colours: intact green, suspicious amber, damaged red, unknown and unreliable grey;
+    labels ``S<n> <state> DF <DF> k1 <change> %`` (no diagnosis: ``S<n> <state>: no
+    diagnosis``).
     """
     rgba = {"intact": (0.173, 0.627, 0.173), "suspicious": (1.0, 0.749, 0.0),
-            "damaged": (0.839, 0.153, 0.157), "unknown": (0.62, 0.62, 0.62)}
+            "damaged": (0.839, 0.153, 0.157), "unknown": (0.62, 0.62, 0.62),
+            "unreliable": (0.62, 0.62, 0.62)}
     assert markers.markers[0].action == 3  # DELETEALL first
     by_ns = {}
     for m in markers.markers[1:]:
@@ -140,7 +148,9 @@ def check_markers(markers: Any, result: Any) -> None:
         assert cyl.pose.position.z == pytest.approx(0.5 * (sec.z_bottom_m + sec.z_top_m))
         assert cyl.scale.z == pytest.approx(0.96 * (sec.z_top_m - sec.z_bottom_m))
         assert label.text.startswith(f"S{sec.index + 1} {sec.state}")
-        if sec.state != "unknown":
+        if sec.state in ("unknown", "unreliable"):
+            assert label.text.startswith(f"S{sec.index + 1} {sec.state}: no diagnosis")
+        else:
             df = f"{sec.ductility_factor:.2f}" if sec.yielded else f"<={sec.ductility_factor:.2f}"
             assert f"DF {df}" in label.text
             assert f"k1 {sec.k1_change_pct:+.1f} %" in label.text

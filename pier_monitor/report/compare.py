@@ -181,6 +181,7 @@ class Comparison:
         d = asdict(self)
         d["sections"] = [dict(asdict(s), reasons=list(s.reasons), summary=s.summary())
                          for s in self.sections]
+        d["unreliable"] = list(self.unreliable)
         d["summary"] = self.summary_lines()
         return d
 
