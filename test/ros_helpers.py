@@ -8,14 +8,17 @@ module (conftest.py does, also for the unit tests) never loads them.
 
 from __future__ import annotations
 
+import atexit
 import math
 import numbers
 import os
 import selectors
 import signal
 import subprocess
+import sys
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +34,50 @@ RUN_SCRIPT = ("import runpy, sys; script = sys.argv.pop(1); sys.argv[0] = script
               "runpy.run_path(script, run_name='__main__')")
 RUN_MODULE = ("import runpy, sys; module = sys.argv.pop(1); "
               "runpy.run_module(module, run_name='__main__', alter_sys=True)")
+
+
+#: Children started by :func:`start_child` in this process (killed at exit at the latest).
+_CHILDREN: list[subprocess.Popen[str]] = []
+#: Run before the child's command: die with the test process however it ends (a failed or
+#: killed test run never leaves nodes behind), then exec the command.  PR_SET_PDEATHSIG (1)
+#: survives the exec; the parent check closes the race with a parent that died first.
+_DIE_WITH_PARENT = ("import ctypes, os, signal, sys; "
+                    "ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL); "
+                    "os.getppid() == int(sys.argv[1]) or os._exit(70); "
+                    "os.execvp(sys.argv[2], sys.argv[2:])")
+
+
+def start_child(cmd: Sequence[str], env: dict[str, str], cwd: Path | str) -> RosProcess:
+    """Start ``cmd`` with merged stdout/stderr and stdin open, in a process group of its own.
+
+    The child is killed when this process dies (also by SIGKILL or a timeout's
+    ``os._exit``), and :func:`kill_children` kills its whole group (a graph script's nodes
+    included).  Call it from the main thread: the death signal follows the thread that
+    started the child.
+    """
+    popen = subprocess.Popen([sys.executable, "-c", _DIE_WITH_PARENT, str(os.getpid()), *cmd],
+                             env=env, cwd=cwd, text=True, stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                             start_new_session=True)
+    _CHILDREN.append(popen)
+    return RosProcess(popen)
+
+
+def kill_children(children: Sequence[RosProcess] | None = None) -> None:
+    """SIGKILL the process groups of children still running (default: all of them)."""
+    popens = _CHILDREN if children is None else [c.popen for c in children]
+    for popen in list(popens):
+        if popen.poll() is None:
+            try:
+                os.killpg(popen.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            popen.wait()
+        if popen in _CHILDREN:
+            _CHILDREN.remove(popen)
+
+
+atexit.register(kill_children)
 
 
 class RosProcess:
@@ -94,8 +141,7 @@ class RosProcess:
         try:
             return self.popen.wait(timeout=timeout_s)
         except subprocess.TimeoutExpired:
-            self.popen.kill()
-            self.popen.wait()
+            kill_children([self])
             raise
         finally:
             self._selector.close()
@@ -158,6 +204,15 @@ def check_markers(markers: Any, result: Any) -> None:
     assert title.text.startswith(f"{result.pier_id} {result.overall_state.upper()}")
 
 
+def wait_until(predicate: Any, timeout_s: float, what: str) -> None:
+    """Poll ``predicate()`` every 0.1 s until true; fail the test after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
+        time.sleep(0.1)
+
+
 def params_file(path: Path, data: Path, **identifier: Any) -> Path:
     """A ros__parameters file for both nodes (tiny training unless overridden).
 
@@ -214,11 +269,7 @@ class Listener:
         self.thread.start()
 
     def wait(self, predicate: Any, timeout_s: float, what: str) -> None:
-        deadline = time.monotonic() + timeout_s
-        while not predicate():
-            if time.monotonic() > deadline:
-                pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
-            time.sleep(0.1)
+        wait_until(predicate, timeout_s, what)
 
     def ingest_values(self) -> dict[str, str]:
         for arr in reversed(self.status):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from fault_injection import drop, short_recording
 from ros_helpers import (NS, REPO_ROOT, RUN_SCRIPT, TINY, Listener, check_markers, interrupt,
-                         params_file, start_node)
+                         params_file, start_node, wait_until)
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(170)]
 
@@ -534,3 +534,50 @@ def test_ingest_node_reports_findings_excluded_sensors_and_a_failed_event(
     assert interrupt(ingest) == 0
     assert f"event {values['event_id']}: failed, no window: level 2" in "\n".join(
         ingest.read_rest())
+
+
+def _alive(pid: int) -> bool:
+    """The process exists and is not a zombie."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except FileNotFoundError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def _children_of(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (FileNotFoundError, ProcessLookupError):
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+@pytest.mark.timeout(90)
+def test_no_node_outlives_a_killed_launcher_or_test_process(spawn_python, tmp_path):
+    # the graph launcher killed: its nodes get SIGTERM and shut down
+    graph = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/start_graph.py"),
+                         "--namespace", NS, "--params-file",
+                         str(params_file(tmp_path / "p.yaml", tmp_path)))
+    graph.wait_for_line("READY", 30)
+    graph.wait_for_line("READY", 30)
+    nodes = _children_of(graph.popen.pid)
+    assert len(nodes) == 2 and all(_alive(p) for p in nodes)
+    graph.popen.kill()
+    graph.popen.wait(timeout=10)
+    wait_until(lambda: not any(_alive(p) for p in nodes), 45, "the nodes to exit")
+    # a test process that dies (here: SIGKILL) takes the children of start_child with it
+    code = ("import os, sys, time; sys.path.insert(0, 'test'); "
+            "from ros_helpers import start_child; "
+            "c = start_child(['sleep', '600'], dict(os.environ), '.'); "
+            "print('CHILD', c.popen.pid, flush=True); time.sleep(600)")
+    parent = spawn_python(code)
+    child = int(parent.wait_for_line("CHILD", 20).split()[1])
+    assert _alive(child)
+    parent.popen.kill()
+    parent.popen.wait(timeout=10)
+    wait_until(lambda: not _alive(child), 10, "the child of the killed process to die")
