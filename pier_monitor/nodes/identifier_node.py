@@ -250,7 +250,7 @@ class IdentifierNode(Node):
     def destroy_node(self) -> None:
         """Stop the worker (ending a training at its next epoch), then the node."""
         self._closing = True  # a training stops at its next epoch; the window stays stored
-        self._worker.stop(timeout_s=30.0)
+        self._worker.stop(self.get_logger().info)
         if self._ray is not None:
             self._ray.close()
         super().destroy_node()

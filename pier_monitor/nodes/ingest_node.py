@@ -292,7 +292,7 @@ class IngestNode(Node):
     # -- shutdown ---------------------------------------------------------------------------
     def destroy_node(self) -> None:
         """Drain the queue, write events that ended with the stream to disk, stop."""
-        self._worker.stop(timeout_s=30.0)
+        self._worker.stop(self.get_logger().info)
         if self._stream is not None:
             try:
                 for window in self._stream.flush():

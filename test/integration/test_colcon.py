@@ -104,6 +104,12 @@ def test_colcon_built_executables_diagnose_a_replayed_bag(
     try:
         for node in nodes:
             node.wait_for_line("READY", 60)
+            # the workspace's message libraries only: the venv holds another build of them,
+            # which a library path in another order would mix in
+            libs = {line.split()[-1] for line in
+                    Path(f"/proc/{node.popen.pid}/maps").read_text().splitlines()
+                    if "pier_monitor_msgs" in line}
+            assert libs and all(lib.startswith(str(install)) for lib in libs), libs
         replay = start_child([str(VENV / "bin" / "python"), "-c", RUN_SCRIPT,
                               str(REPO_ROOT / "launch_free_scripts" / "replay_bag.py"), str(bag),
                               "--rate", "8"], env, tmp_path)
