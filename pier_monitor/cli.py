@@ -3,7 +3,8 @@
 Subcommands
 -----------
 simulate  simulate a pier under a ground motion; write responses (.npz) or a synthetic
-          E-Defense-style bag (rosbag2 directory or .mcap) with its ground truth
+          E-Defense-style or field-network bag (rosbag2 directory or .mcap) with its
+          ground truth
 bench     benchmarks against known truth (prints a table, ``--json`` writes results)
 identify  ingest a bag, identify every event with the PINN, write results and figures
           (exit status: 0 every event identified and reliable, 1 an event failed or was
@@ -25,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pier_monitor.bags.synthetic_bag import SyntheticBagInfo, write_synthetic_edefense_bag
+from pier_monitor.bags.synthetic_bag import (SyntheticBagInfo, write_synthetic_bag,
+                                              write_synthetic_edefense_bag)
 from pier_monitor.bags.synthetic_fleet import FLEET_TRUTH_JSON, write_synthetic_fleet
 from pier_monitor.bench import DEFAULT_SUITES, SUITES, format_table
 from pier_monitor.core.errors import PierMonitorError, ReportError
@@ -34,6 +36,7 @@ from pier_monitor.core.ingest.settings import Finding, fmt_span
 from pier_monitor.core.model.config import load_config
 from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
 from pier_monitor.core.model.solver import simulate
+from pier_monitor.core.synthetic.measurement import SensorImperfections
 from pier_monitor.core.synthetic.reference import table1_model
 from pier_monitor.fleet import FleetOptions, FleetProgress, LocalPool, RayBackend, run_fleet
 from pier_monitor.pinn import PinnSettings
@@ -73,7 +76,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "(SI, time-first, relative to the foundation). With OUT ending in .mcap or "
                     "any other name: write a synthetic E-Defense-style bag (two runs of "
                     "increasing damage; .mcap = single file, else a rosbag2 directory) and its "
-                    "ground truth beside it.")
+                    "ground truth beside it. With --layout: a field-network bag (the layout's "
+                    "sensors, imperfect sensors, anti-aliasing data loggers; one earthquake).")
     sim.add_argument("--pier", type=Path, help="pier configuration YAML (default: the paper's "
                      "Table 1 pier for .npz, the E-Defense-like pier for bags)")
     sim.add_argument("--ground-motion", type=Path,
@@ -97,9 +101,24 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write N synthetic piers (2-8 sections, sensor layouts, motions, damage "
                           "levels) into the directory OUT: one bag each, its truth beside it and "
                           "fleet_truth.json")
-    sim.add_argument("--layout", action="append", default=None,
-                     help="sensor layout of the fleet's piers, repeatable, given in turn "
-                          "(default: full, the shaking-table layout)")
+    sim.add_argument("--layout", action="append", choices=("full", "accel", "sparse"),
+                     default=None,
+                     help="sensor layout: full = the configuration's sensor map, accel = "
+                          "accelerometers at every level, sparse = accelerometers at the "
+                          "foundation, mid-height and top. One bag: once, for a field-network "
+                          "bag (default: the shaking-table bag of the configuration's sensor "
+                          "map). --fleet: repeatable, given to the piers in turn (default: full)")
+    sim.add_argument("--gnss", action="store_true",
+                     help="with --layout: add a GNSS receiver at the top (10 Hz, 5 mm)")
+    sim.add_argument("--imperfections", action=argparse.BooleanOptionalAction, default=None,
+                     help="record with sensors that differ from the configuration (1 %% gain, "
+                          "0.5 deg azimuth, tilt, bias; reported in the truth); default on "
+                          "with --layout, off without")
+    sim.add_argument("--scenario", choices=("edefense", "strong", "just_yield"), default=None,
+                     help="edefense = the two-run shaking-table test of the E-Defense-like pier; "
+                          "strong / just_yield = one earthquake that yields the lower sections / "
+                          "only just yields the base, for the E-Defense-like or Table 1 pier "
+                          "(default: edefense, or strong with --layout)")
     sim.add_argument("--bag-format", choices=("mcap", "rosbag2", "mixed"), default="mcap",
                      help="bag format of the fleet's piers (mixed: alternating)")
     sim.add_argument("--record-s", type=_positive_float, default=30.0,
@@ -355,6 +374,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _simulate_npz(args: argparse.Namespace) -> int:
+    if args.layout is not None or args.gnss or args.scenario is not None \
+            or args.imperfections is not None:
+        raise PierMonitorError("--layout/--gnss/--scenario/--imperfections apply to bags; "
+                               f"{args.out} is .npz responses")
     if args.pier is not None:
         cfg = load_config(args.pier)
         geometry, params, name = cfg.geometry, cfg.design, cfg.pier_id
@@ -396,14 +419,29 @@ def _simulate_bag(args: argparse.Namespace) -> int:
         raise PierMonitorError(
             "--ground-motion/--column/--scale/--pga apply to .npz output; the synthetic bag uses "
             "its own seeded runs (choose them with --seed)")
+    if args.layout is not None and len(args.layout) > 1:
+        raise PierMonitorError(f"one --layout for a bag, got {args.layout} (several are for "
+                               "--fleet)")
+    layout = args.layout[0] if args.layout else None
+    if args.gnss and layout is None:
+        raise PierMonitorError("--gnss adds a GNSS receiver to a field layout; give --layout "
+                               "full, accel or sparse")
+    field = layout is not None
+    imperfect = field if args.imperfections is None else args.imperfections
+    scenario = args.scenario or ("strong" if field else "edefense")
     fmt = "mcap" if args.out.suffix == ".mcap" else "rosbag2"
-    info = write_synthetic_edefense_bag(args.out, fmt=fmt, seed=0 if args.seed is None else
-                                        args.seed, config_path=args.pier)
+    info = write_synthetic_bag(args.out, fmt=fmt, seed=0 if args.seed is None else args.seed,
+                               config_path=args.pier, scenario=scenario, layout=layout,
+                               gnss=args.gnss,
+                               imperfections=SensorImperfections() if imperfect else None)
     print(_bag_summary(info))
     return 0
 
 
 def _simulate_fleet(args: argparse.Namespace) -> int:
+    if args.gnss or args.scenario is not None or args.imperfections is not None:
+        raise PierMonitorError("--gnss/--scenario/--imperfections apply to one bag; the fleet's "
+                               "piers have scenarios and ideal sensors of their own")
     written = write_synthetic_fleet(args.out, args.fleet, seed=0 if args.seed is None else
                                     args.seed, layouts=tuple(args.layout or ("full",)),
                                     fmt=args.bag_format, record_s=args.record_s)
@@ -422,16 +460,22 @@ def _simulate_fleet(args: argparse.Namespace) -> int:
 def _bag_summary(info: SyntheticBagInfo) -> str:
     """Readable overview of a written synthetic bag."""
     s = info.summary()
+    w = max(6, *(len(r["name"]) for r in s["runs"]))  # width of the run names
     lines = [f"wrote {s['format']} bag {s['bag']}: {s['messages']} messages, "
              f"{s['size_bytes'] / 1e6:.1f} MB, {s['duration_s']:.1f} s of data "
              f"(simulated and written in {s['elapsed_s']:.1f} s)",
              f"pier configuration {s['config']} (embedded in the bag), seed {s['seed']}",
+             f"sensors: {s['sensors']}, layout "
+             + (f"{s['layout']}{' + GNSS top' if s['gnss'] else ''} (field network)"
+                if s["layout"] else "of the configuration (shaking table)")
+             + f"; imperfect sensors: {'yes' if s['imperfect_sensors'] else 'no'}, "
+               f"anti-aliasing: {'yes' if s['anti_alias'] else 'no'}",
              f"ground truth: {s['truth_json']}, {s['truth_npz']}",
-             f"{'run':<6} {'start s':>8} {'mainshock window s':>20} {'PGA m/s2':>9} "
+             f"{'run':<{w}} {'start s':>8} {'mainshock window s':>20} {'PGA m/s2':>9} "
              f"{'T1 s':>6}  true ductility factors (sections bottom to top)"]
     for r in s["runs"]:
         win = f"{r['window_s'][0]:.2f}-{r['window_s'][1]:.2f}"
-        lines.append(f"{r['name']:<6} {r['start_s']:>8.2f} {win:>20} {r['pga_mps2']:>9.2f} "
+        lines.append(f"{r['name']:<{w}} {r['start_s']:>8.2f} {win:>20} {r['pga_mps2']:>9.2f} "
                      f"{r['first_period_s']:>6.3f}  {', '.join(f'{d:.2f}' for d in r['ductility_factors'])}")
     return "\n".join(lines)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 from .errors import BagError
 from .reader import read_bag, read_bag_config
 from .synthetic_bag import (SyntheticBagInfo, default_edefense_config, truth_paths,
-                            write_synthetic_edefense_bag)
+                            write_synthetic_bag, write_synthetic_edefense_bag)
 from .types import KIND_CODES, SAMPLE_BLOCK, STRING, find_msg_dir, get_typestore
 from .writer import (BagSummary, bag_format, config_topic, iter_messages, sensor_topic,
                      write_bag, write_mcap_messages)
@@ -33,5 +33,6 @@ __all__ = [
     "truth_paths",
     "write_bag",
     "write_mcap_messages",
+    "write_synthetic_bag",
     "write_synthetic_edefense_bag",
 ]

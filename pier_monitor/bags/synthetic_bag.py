@@ -6,6 +6,12 @@ configuration's sensor map, written as a rosbag2 directory or a plain ``.mcap`` 
 ground truth is written next to the bag as ``<bag stem>.truth.npz`` (time series) and
 ``<bag stem>.truth.json`` (parameters, geometry, periods, run and mainshock windows,
 ductility factors, principal direction, noise levels; human-readable).
+
+A field bag (:func:`write_synthetic_bag` with a ``layout``) records instead what a monitoring
+network would: the layout's sensors (:mod:`~pier_monitor.core.synthetic.layouts`), optionally
+a GNSS receiver at the top, through imperfect sensors and anti-aliasing data loggers
+(:func:`~pier_monitor.core.synthetic.field.field_recording`); the bag carries the field
+configuration with the nominal sensors, the truth the sensors' true errors.
 """
 
 from __future__ import annotations
@@ -15,9 +21,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pier_monitor.core.model.config import load_config
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.model.config import PierConfig, load_config
 from pier_monitor.core.ingest.recording import NS_PER_S
 from pier_monitor.core.resources import find_config_file
+from pier_monitor.core.synthetic.field import field_recording, named_scenario
+from pier_monitor.core.synthetic.measurement import SensorImperfections
 from pier_monitor.core.synthetic.shaking_table import (Scenario, SyntheticTruth, generate_recording,
                                          save_truth)
 
@@ -25,7 +34,7 @@ from .errors import BagError
 from .writer import BagFormat, BagSummary, DEFAULT_BLOCK_S, write_bag
 
 __all__ = ["EDEFENSE_CONFIG_NAME", "SyntheticBagInfo", "default_edefense_config",
-           "truth_paths", "write_synthetic_edefense_bag"]
+           "truth_paths", "write_synthetic_bag", "write_synthetic_edefense_bag"]
 
 #: File name of the E-Defense-like pier configuration shipped with the package.
 EDEFENSE_CONFIG_NAME = "edefense_like.yaml"
@@ -42,7 +51,13 @@ class SyntheticBagInfo:
     truth_npz, truth_json : Path
         The ground truth files.
     config_path : Path
-        The pier configuration that was simulated (also embedded in the bag).
+        The pier configuration that was simulated.
+    config : PierConfig
+        The configuration embedded in the bag (the layout's sensor map for a field bag).
+    layout : str or None
+        Field layout (``full``, ``accel``, ``sparse``), or ``None``: the file's sensor map.
+    gnss : bool
+        Whether the field layout has the GNSS receiver at the top.
     truth : SyntheticTruth
         The ground truth itself.
     elapsed_s : float
@@ -53,6 +68,9 @@ class SyntheticBagInfo:
     truth_npz: Path
     truth_json: Path
     config_path: Path
+    config: PierConfig
+    layout: str | None
+    gnss: bool
     truth: SyntheticTruth
     elapsed_s: float
 
@@ -64,6 +82,9 @@ class SyntheticBagInfo:
             "size_bytes": self.bag.size_bytes, "messages": self.bag.n_messages,
             "truth_npz": str(self.truth_npz), "truth_json": str(self.truth_json),
             "config": str(self.config_path), "seed": self.truth.seed,
+            "layout": self.layout, "gnss": self.gnss, "sensors": len(self.config.sensors),
+            "imperfect_sensors": self.truth.imperfections is not None,
+            "anti_alias": self.truth.anti_alias,
             "duration_s": (self.truth.end_ns - t0) / NS_PER_S, "elapsed_s": self.elapsed_s,
             "runs": [{
                 "name": r.name,
@@ -89,11 +110,35 @@ def truth_paths(bag_path: str | Path) -> tuple[Path, Path]:
     return (bag_path.with_name(f"{stem}.truth.npz"), bag_path.with_name(f"{stem}.truth.json"))
 
 
-def write_synthetic_edefense_bag(out_path: str | Path, *, fmt: BagFormat = "rosbag2",
-                                 seed: int = 0, config_path: str | Path | None = None,
-                                 scenario: Scenario | None = None,
-                                 block_s: float = DEFAULT_BLOCK_S) -> SyntheticBagInfo:
-    """Simulate the E-Defense-like shaking-table test and write it as a bag plus ground truth.
+def _bag_paths(out_path: str | Path, fmt: BagFormat) -> tuple[Path, Path, Path]:
+    """The bag and its two truth files; :class:`BagError` if the format is off or one exists."""
+    out_path = Path(out_path)
+    if fmt == "mcap" and out_path.suffix.lower() != ".mcap":
+        out_path = out_path.with_name(out_path.name + ".mcap")
+    elif fmt == "rosbag2" and out_path.suffix.lower() == ".mcap":
+        raise BagError(f"{out_path}: a rosbag2 bag is a directory; drop the .mcap suffix or "
+                       "use fmt='mcap'")
+    elif fmt not in ("rosbag2", "mcap"):
+        raise BagError(f"{out_path}: unknown bag format {fmt!r}; expected 'rosbag2' or 'mcap'")
+    npz_path, json_path = truth_paths(out_path)
+    for p in (out_path, npz_path, json_path):
+        if p.exists():
+            raise BagError(f"{p}: exists already, not overwriting")
+    return out_path, npz_path, json_path
+
+
+def write_synthetic_bag(out_path: str | Path, *, fmt: BagFormat = "rosbag2", seed: int = 0,
+                        config_path: str | Path | None = None,
+                        scenario: Scenario | str | None = None, layout: str | None = None,
+                        gnss: bool = False,
+                        imperfections: SensorImperfections | None = None,
+                        block_s: float = DEFAULT_BLOCK_S) -> SyntheticBagInfo:
+    """Simulate a synthetic test of a pier and write it as a bag plus ground truth.
+
+    Without ``layout`` the pier is recorded with its configuration's sensor map, as it is;
+    with one, as a field network would record it
+    (:func:`~pier_monitor.core.synthetic.field.field_recording`: the layout's sensors, the
+    GNSS receiver with ``gnss``, anti-aliasing, and the ``imperfections`` given).
 
     Parameters
     ----------
@@ -104,13 +149,20 @@ def write_synthetic_edefense_bag(out_path: str | Path, *, fmt: BagFormat = "rosb
     fmt : {"rosbag2", "mcap"}
         Bag format.
     seed : int
-        Seed of the ambient motion and the sensor noise (and of the table records when the
-        scenario does not fix them); the same seed gives the same bag contents.
+        Seed of the ambient motion, the sensor noise and errors (and of the table records
+        when the scenario does not fix them); the same seed gives the same bag contents.
     config_path : str or Path, optional
         Pier configuration with a sensor map; default ``edefense_like.yaml`` of the package.
-    scenario : Scenario, optional
-        Runs and quiet stretches; default the two-run
+    scenario : Scenario or str, optional
+        Runs and quiet stretches, or a name of
+        :func:`~pier_monitor.core.synthetic.field.named_scenario`; default the two-run
         :func:`~pier_monitor.core.synthetic.shaking_table.edefense_scenario`.
+    layout : {"full", "accel", "sparse"}, optional
+        Field layout of the sensors; default the configuration's sensor map, as it is.
+    gnss : bool
+        Add the GNSS receiver at the top (needs a ``layout``).
+    imperfections : SensorImperfections, optional
+        True sensors that differ from the nominal ones; default ideal sensors.
     block_s : float
         Length of a SampleBlock message, s.
 
@@ -124,26 +176,42 @@ def write_synthetic_edefense_bag(out_path: str | Path, *, fmt: BagFormat = "rosb
     BagError
         The bag or truth files exist, the format is unknown, or writing fails.
     ConfigError
-        The configuration cannot be found or is invalid.
+        The configuration cannot be found or is invalid, or the layout does not fit it.
+    InputDataError
+        The scenario is unknown or does not fit the pier, or ``gnss`` without a layout.
     """
     started = time.perf_counter()
-    out_path = Path(out_path)
-    if fmt == "mcap" and out_path.suffix.lower() != ".mcap":
-        out_path = out_path.with_name(out_path.name + ".mcap")
-    elif fmt == "rosbag2" and out_path.suffix.lower() == ".mcap":
-        raise BagError(f"{out_path}: a rosbag2 bag is a directory; drop the .mcap suffix or "
-                       "use fmt='mcap'")
-    elif fmt not in ("rosbag2", "mcap"):
-        raise BagError(f"{out_path}: unknown bag format {fmt!r}; expected 'rosbag2' or 'mcap'")
-    npz_path, json_path = truth_paths(out_path)
-    for p in (out_path, npz_path, json_path):
-        if p.exists():
-            raise BagError(f"{p}: exists already, not overwriting")
+    out_path, npz_path, json_path = _bag_paths(out_path, fmt)
+    if gnss and layout is None:
+        raise InputDataError("gnss: a GNSS receiver is added to a field layout; choose one of "
+                             "full, accel, sparse")
     config_path = Path(config_path) if config_path is not None else default_edefense_config()
     config = load_config(config_path)
-    synthetic = generate_recording(config, scenario, seed=seed)
+    if isinstance(scenario, str):
+        scenario = named_scenario(scenario, config.pier_id)
+    if layout is None:
+        synthetic = generate_recording(config, scenario, seed=seed, imperfections=imperfections)
+    else:
+        if scenario is None:
+            raise InputDataError("scenario: a field bag needs a scenario (e.g. 'strong')")
+        synthetic = field_recording(config, layout, scenario, gnss=gnss, seed=seed,
+                                    imperfections=imperfections)
+    recorded = synthetic.recording.config
     bag = write_bag(synthetic.recording, out_path, fmt=fmt, block_s=block_s)
-    save_truth(synthetic.truth, npz_path, json_path, config=config)
+    save_truth(synthetic.truth, npz_path, json_path, config=recorded)
     return SyntheticBagInfo(bag=bag, truth_npz=npz_path, truth_json=json_path,
-                            config_path=config_path, truth=synthetic.truth,
-                            elapsed_s=time.perf_counter() - started)
+                            config_path=config_path, config=recorded, layout=layout,
+                            gnss=gnss, truth=synthetic.truth, elapsed_s=time.perf_counter() - started)
+
+
+def write_synthetic_edefense_bag(out_path: str | Path, *, fmt: BagFormat = "rosbag2",
+                                 seed: int = 0, config_path: str | Path | None = None,
+                                 scenario: Scenario | None = None,
+                                 block_s: float = DEFAULT_BLOCK_S) -> SyntheticBagInfo:
+    """The E-Defense-style shaking-table bag: :func:`write_synthetic_bag` with ideal sensors.
+
+    The default two-run test on ``edefense_like.yaml``, recorded with the configuration's
+    own sensor map; see :func:`write_synthetic_bag` for the parameters and errors.
+    """
+    return write_synthetic_bag(out_path, fmt=fmt, seed=seed, config_path=config_path,
+                               scenario=scenario, block_s=block_s)

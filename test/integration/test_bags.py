@@ -14,6 +14,11 @@ from pier_monitor.bags import (SAMPLE_BLOCK, BagError, config_topic, find_msg_di
                                truth_paths, write_bag, write_synthetic_edefense_bag)
 from pier_monitor.core.model.config import config_from_yaml, load_config
 from pier_monitor.core.ingest.recording import Recording, SensorRecord
+from pier_monitor.cli import main
+from pier_monitor.core.resources import find_config_file
+from pier_monitor.core.synthetic.field import (field_case_recording, field_recording,
+                                               field_scenario)
+from pier_monitor.core.synthetic.layouts import GNSS_SENSOR_ID, layout_config
 from pier_monitor.core.synthetic.shaking_table import generate_recording, load_truth
 
 
@@ -101,6 +106,70 @@ def test_uneven_timestamps_gaps_and_duplicates_survive_a_round_trip(written, tmp
         got = read_bag(summary.path)
         assert_recordings_equal(got, recording)
         assert "l1_acc_w" in got.missing_sensors
+
+
+# --- field networks: a slower GNSS receiver, imperfect sensors, the command line ---------------
+
+
+def test_a_slower_gnss_receiver_round_trips_through_both_formats(tmp_path):
+    config = load_config(find_config_file("table1_field.yaml"))
+    scenario = field_scenario("table1", "just_yield", lead_s=4.0, tail_s=4.0)
+    recording = field_recording(config, "sparse", scenario, gnss=True, seed=1).recording
+    gnss = recording.sensor(GNSS_SENSOR_ID)
+    assert gnss.rate_hz == 10.0 and recording.sensor("l0_acc_n").rate_hz == 200.0
+    for name in ("gnss.mcap", "gnss_bag"):
+        summary = write_bag(recording, tmp_path / name)
+        got = read_bag(summary.path)
+        assert_recordings_equal(got, recording)
+        assert got.config.sensor(GNSS_SENSOR_ID).rate_hz == 10.0
+        assert got.sensor(GNSS_SENSOR_ID).n_samples == gnss.n_samples == 481  # 48 s at 10 Hz
+
+
+def test_simulate_writes_a_field_bag_with_imperfect_sensors(tmp_path, capsys):
+    pier = find_config_file("table1_field.yaml")
+    out = tmp_path / "field.mcap"
+    assert main(["simulate", "--out", str(out), "--layout", "sparse", "--gnss", "--pier",
+                 str(pier), "--scenario", "just_yield", "--seed", "3"]) == 0
+    printed = capsys.readouterr().out
+    assert "sensors: 7, layout sparse + GNSS top (field network)" in printed
+    assert "imperfect sensors: yes, anti-aliasing: yes" in printed
+    got = read_bag(out)
+    # the bag carries the nominal field configuration; the library gives the same recording
+    assert got.config == layout_config(load_config(pier), "sparse", gnss=True)
+    expected = field_case_recording("table1", "sparse", gnss=True, shaking="just_yield", seed=3)
+    assert_recordings_equal(got, expected.recording)
+    npz, js = truth_paths(out)
+    meta = json.loads(js.read_text())
+    assert set(meta["sensor_errors"]) == {s.sensor_id for s in got.config.sensors}
+    assert meta["imperfections"]["misalignment_sd_deg"] == 0.5 and "anti_alias" in meta
+    truth = load_truth(npz, js)
+    assert truth.sensor_errors == expected.truth.sensor_errors
+    assert 1.2 <= max(meta["runs"][0]["ductility_factors"]) <= 1.5
+
+
+def test_simulate_without_a_layout_writes_the_shaking_table_bag(written, tmp_path, capsys):
+    out = tmp_path / "edefense"
+    assert main(["simulate", "--out", str(out)]) == 0
+    assert "layout of the configuration (shaking table); imperfect sensors: no" in (
+        capsys.readouterr().out)
+    assert_recordings_equal(read_bag(out), written["expected"])
+    assert "sensor_errors" not in json.loads(truth_paths(out)[1].read_text())
+
+
+def test_simulate_rejects_field_options_that_do_not_apply(tmp_path, capsys):
+    assert main(["simulate", "--out", str(tmp_path / "b"), "--gnss"]) == 2
+    assert "--gnss adds a GNSS receiver to a field layout" in capsys.readouterr().err
+    assert main(["simulate", "--out", str(tmp_path / "r.npz"), "--layout", "accel"]) == 2
+    assert "apply to bags" in capsys.readouterr().err
+    assert main(["simulate", "--out", str(tmp_path / "c"), "--layout", "accel", "--pier",
+                 str(find_config_file("table1.yaml")), "--scenario", "edefense"]) == 2
+    assert "k1_factors: expected 6" in capsys.readouterr().err
+    assert main(["simulate", "--out", str(tmp_path / "d"), "--layout", "accel", "--layout",
+                 "sparse"]) == 2
+    assert "one --layout for a bag, got ['accel', 'sparse']" in capsys.readouterr().err
+    assert main(["simulate", "--out", str(tmp_path / "e"), "--fleet", "2", "--gnss"]) == 2
+    assert "apply to one bag" in capsys.readouterr().err
+    assert not any((tmp_path / name).exists() for name in "bcde")
 
 
 # --- standard tools read the plain mcap ------------------------------------------------------

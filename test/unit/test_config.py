@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +87,11 @@ def test_config_arrays_are_read_only():
      r"sensors\[1\]\.full_scale: 40 m/s\^2 does not cover the offset 50 m/s\^2"),
     (lambda d: d["sensors"][2].__setitem__("offsets", [2.0]),
      r"sensors\[2\]\.range: \[-1.0, 1.0\] m does not hold the offset 2 m"),
+    (lambda d: d["sensors"][2].__setitem__("rate_hz", -10), r"sensors\[2\]\.rate_hz: expected a positive number, got -10"),
+    (lambda d: d["sensors"][2].__setitem__("rate_hz", 30.0),
+     r"sensors\[2\]\.rate_hz: must divide the pier's sample_rate_hz=100 into a whole number, got 30"),
+    (lambda d: d["sensors"][2].__setitem__("rate_hz", 200.0),
+     r"sensors\[2\]\.rate_hz: must divide the pier's sample_rate_hz=100 into a whole number, got 200"),
 ])
 def test_bad_configuration_names_the_field(tmp_path, mutate, match):
     data = table1_dict()
@@ -135,3 +141,24 @@ def test_spring_parameters_validate_shapes_and_constraints():
     with pytest.raises(ConfigError, match=r"k2\[0\]: second stiffness must be below"):
         SpringParameters([1e9], [1e9], [1e6], [1e7])
     assert issubclass(ConfigError, PierMonitorError)
+
+
+def test_sensor_rate_defaults_to_the_pier_rate_and_round_trips():
+    data = table1_dict()
+    data["sensors"][2]["rate_hz"] = 10.0  # disp_l1, e.g. a GNSS-like slow sensor
+    cfg = config_from_yaml(yaml.safe_dump(data), source="slow.yaml")
+    slow, fast = cfg.sensor("disp_l1"), cfg.sensor("acc_l1")
+    assert slow.rate_hz == 10.0 and cfg.sensor_rate_hz(slow) == 10.0
+    assert fast.rate_hz is None and cfg.sensor_rate_hz(fast) == cfg.sample_rate_hz == 100.0
+    assert slow.as_dict()["rate_hz"] == 10.0 and "rate_hz" not in fast.as_dict()
+    again = config_from_yaml(cfg.to_yaml(), source="again")
+    assert again == cfg and again.sensor("disp_l1").rate_hz == 10.0
+
+
+def test_sensor_rate_is_checked_when_the_pier_rate_changes():
+    data = table1_dict()
+    data["sensors"][2]["rate_hz"] = 20.0
+    cfg = config_from_yaml(yaml.safe_dump(data), source="slow.yaml")
+    with pytest.raises(ConfigError, match=r"slow.yaml: sensor disp_l1: rate_hz: must divide the "
+                                          r"pier's sample_rate_hz=30 into a whole number, got 20"):
+        replace(cfg, sample_rate_hz=30.0)

@@ -33,6 +33,8 @@ Layout of the file (SI units, names carry them)::
         full_scale: 2000.0           # |recorded| above this is impossible, in ``unit``
                                      # (optional; accelerometers and velocity meters)
         location: north face         # free text (optional)
+        rate_hz: 20.0                # own sampling rate (optional; default sample_rate_hz;
+                                     # must divide sample_rate_hz into a whole number)
       - id: wire_l1_n                # a displacement transducer
         ...
         range: [0.0, 1000.0]         # recorded values outside are impossible, in ``unit``
@@ -224,6 +226,10 @@ class SensorSpec:
     ``full_scale`` (accelerometers, velocity meters) and ``value_range`` (displacement
     sensors; ``range`` in the YAML file) bound the recorded values, in ``unit``: a sample
     beyond them is physically impossible and is treated as missing.  None = not known.
+
+    ``rate_hz`` is the sensor's own sampling rate, Hz, for a sensor slower than the pier's
+    ``sample_rate_hz`` (a GNSS receiver at 10 Hz among 200 Hz accelerometers); ``None``
+    means the pier's rate (:meth:`PierConfig.sensor_rate_hz`).
     """
 
     sensor_id: str
@@ -240,6 +246,7 @@ class SensorSpec:
     location: str = ""
     full_scale: float | None = None
     value_range: tuple[float, float] | None = None
+    rate_hz: float | None = None
 
     def __post_init__(self) -> None:
         if not self.signs:
@@ -264,7 +271,7 @@ class SensorSpec:
         raise ConfigError(f"sensor {self.sensor_id}: unknown axis {axis!r}")
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain form, as written in the YAML file."""
+        """Plain form, as written in the YAML file (optional fields only when set)."""
         return {
             "id": self.sensor_id, "topic": self.topic, "level": self.level, "kind": self.kind,
             "unit": self.unit, "axes": list(self.axes), "orientation_deg": self.orientation_deg,
@@ -272,6 +279,7 @@ class SensorSpec:
             "noise_rms": self.noise_rms, "location": self.location,
             **({"full_scale": self.full_scale} if self.full_scale is not None else {}),
             **({"range": list(self.value_range)} if self.value_range is not None else {}),
+            **({"rate_hz": self.rate_hz} if self.rate_hz is not None else {}),
         }
 
     def recorded_bounds(self) -> tuple[float, float] | None:
@@ -279,6 +287,17 @@ class SensorSpec:
         if self.full_scale is not None:
             return (-self.full_scale, self.full_scale)
         return self.value_range
+
+
+def _rate_problem(rate_hz: float, pier_rate_hz: float) -> str | None:
+    """Why a sensor's own rate does not fit the pier's rate, or ``None`` when it does."""
+    if not (math.isfinite(rate_hz) and rate_hz > 0):
+        return f"expected a positive number, got {rate_hz}"
+    ratio = pier_rate_hz / rate_hz
+    if round(ratio) < 1 or abs(ratio - round(ratio)) > 1e-9 * ratio:
+        return (f"must divide the pier's sample_rate_hz={pier_rate_hz:g} into a whole number, "
+                f"got {rate_hz:g}")
+    return None
 
 
 @dataclass(frozen=True)
@@ -303,6 +322,11 @@ class PierConfig:
             raise ConfigError(
                 f"{self.source or self.pier_id}: design parameters have {self.design.n_springs} "
                 f"springs but the geometry has {self.geometry.n_levels} sections")
+        for s in self.sensors:
+            problem = None if s.rate_hz is None else _rate_problem(s.rate_hz, self.sample_rate_hz)
+            if problem:
+                raise ConfigError(f"{self.source or self.pier_id}: sensor {s.sensor_id}: "
+                                  f"rate_hz: {problem}")
 
     @property
     def n_levels(self) -> int:
@@ -313,6 +337,10 @@ class PierConfig:
         """Sensors at a level, optionally of one kind."""
         return tuple(s for s in self.sensors
                      if s.level == level and (kind is None or s.kind == kind))
+
+    def sensor_rate_hz(self, sensor: SensorSpec) -> float:
+        """Sampling rate of a sensor of the map, Hz: its own ``rate_hz``, else the pier's."""
+        return self.sample_rate_hz if sensor.rate_hz is None else sensor.rate_hz
 
     def sensor(self, sensor_id: str) -> SensorSpec:
         """The sensor with this id; :class:`ConfigError` if there is none."""
@@ -390,7 +418,7 @@ class _Ctx:
 
 _SECTION_KEYS = {"height_m", "mass_kg", "k1_Nm_per_rad", "k2_Nm_per_rad", "fy_Nm", "c_Nms_per_rad"}
 _SENSOR_KEYS = {"id", "topic", "level", "kind", "unit", "axes", "orientation_deg", "signs", "gain",
-                "offsets", "noise_rms", "location", "full_scale", "range"}
+                "offsets", "noise_rms", "location", "full_scale", "range", "rate_hz"}
 _TOP_KEYS = {"pier_id", "description", "sample_rate_hz", "principal_direction_deg", "sections",
              "sensors"}
 
@@ -402,7 +430,8 @@ def _check_keys(ctx: _Ctx, mapping: Mapping[str, Any], allowed: set[str], path: 
         raise ctx.fail(where, f"unknown field (allowed: {', '.join(sorted(allowed))})")
 
 
-def _parse_sensor(ctx: _Ctx, raw: Any, i: int, n_levels: int) -> SensorSpec:
+def _parse_sensor(ctx: _Ctx, raw: Any, i: int, n_levels: int,
+                  pier_rate_hz: float) -> SensorSpec:
     path = f"sensors[{i}]"
     if not isinstance(raw, Mapping):
         raise ctx.fail(path, f"expected a mapping, got {type(raw).__name__}")
@@ -435,6 +464,10 @@ def _parse_sensor(ctx: _Ctx, raw: Any, i: int, n_levels: int) -> SensorSpec:
     if gain == 0:
         raise ctx.fail(f"{path}.gain", "expected a non-zero number, got 0")
     full_scale, value_range = _parse_bounds(ctx, raw, path, kind, unit, offsets)
+    rate_hz = ctx.number(raw, "rate_hz", path, positive=True, default=None)
+    problem = None if rate_hz is None else _rate_problem(rate_hz, pier_rate_hz)
+    if problem:
+        raise ctx.fail(f"{path}.rate_hz", problem)
     return SensorSpec(
         sensor_id=sensor_id,
         topic=ctx.string(raw, "topic", path),
@@ -450,6 +483,7 @@ def _parse_sensor(ctx: _Ctx, raw: Any, i: int, n_levels: int) -> SensorSpec:
         location=ctx.string(raw, "location", path, default=""),
         full_scale=full_scale,
         value_range=value_range,
+        rate_hz=rate_hz,
     )
 
 
@@ -518,10 +552,12 @@ def config_from_dict(raw: Any, source: str = "") -> PierConfig:
         cols["fy"].append(ctx.number(sec, "fy_Nm", path, positive=True))
         cols["c"].append(ctx.number(sec, "c_Nms_per_rad", path, nonneg=True))
     n = len(sections)
+    sample_rate_hz = ctx.number(raw, "sample_rate_hz", "", positive=True, default=100.0)
     sensors_raw = raw.get("sensors", []) or []
     if not isinstance(sensors_raw, list):
         raise ctx.fail("sensors", f"expected a list, got {type(sensors_raw).__name__}")
-    sensors = tuple(_parse_sensor(ctx, s, i, n) for i, s in enumerate(sensors_raw))
+    sensors = tuple(_parse_sensor(ctx, s, i, n, sample_rate_hz)
+                    for i, s in enumerate(sensors_raw))
     seen: dict[str, int] = {}
     topics: dict[str, int] = {}
     for i, s in enumerate(sensors):
@@ -542,7 +578,7 @@ def config_from_dict(raw: Any, source: str = "") -> PierConfig:
         geometry=PierGeometry(np.array(cols["h"]), np.array(cols["m"])),
         design=SpringParameters(np.array(cols["k1"]), np.array(cols["k2"]),
                                 np.array(cols["fy"]), np.array(cols["c"])),
-        sample_rate_hz=ctx.number(raw, "sample_rate_hz", "", positive=True, default=100.0),
+        sample_rate_hz=sample_rate_hz,
         principal_direction_deg=direction,
         sensors=sensors,
         source=source,

@@ -1,1 +1,10 @@
-"""Data with known truth: simulated shaking-table recordings and the paper's reference cases."""
+"""Data with known truth: simulated shaking-table and field-network recordings, reference cases.
+
+* :mod:`~pier_monitor.core.synthetic.shaking_table` — seeded multi-run recordings of a pier's
+  sensor map and their ground truth;
+* :mod:`~pier_monitor.core.synthetic.measurement` — the sensors' measurement model: rates,
+  imperfections unknown to the configuration, anti-aliasing;
+* :mod:`~pier_monitor.core.synthetic.layouts` — field sensor layouts derived from a full map;
+* :mod:`~pier_monitor.core.synthetic.field` — the field benchmark's piers, shakings and cases;
+* :mod:`~pier_monitor.core.synthetic.reference` — the paper's reference cases.
+"""

@@ -9,9 +9,10 @@ the first mode), instrumented with the E-Defense sensor-map pattern generalised 
 level.  :func:`~pier_monitor.core.synthetic.shaking_table.generate_recording` then plays each
 pier's scenario and keeps its ground truth.
 
-Sensor layouts are named: ``"full"`` is the shaking-table layout.  :func:`apply_layout` is
-where other layouts (field networks) plug in: a layout maps the full-layout configuration to
-the configuration of that layout.
+Sensor layouts are named: ``"full"`` is the shaking-table layout, ``"accel"`` and ``"sparse"``
+the field networks of :func:`~pier_monitor.core.synthetic.layouts.layout_config`
+(accelerometers at every level; at the foundation, mid-height and top).  :func:`apply_layout`
+maps the full-layout configuration to the configuration of a layout.
 
 Everything random derives from ``(seed, index)``: pier ``i`` of a fleet does not depend on
 how many piers are drawn.
@@ -27,6 +28,7 @@ import numpy as np
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.model.config import PierConfig, PierGeometry, SensorSpec, SpringParameters
 from pier_monitor.core.model.link_model import natural_periods
+from pier_monitor.core.synthetic.layouts import layout_config
 from pier_monitor.core.synthetic.shaking_table import RunSpec, Scenario
 
 __all__ = ["DAMAGE_LEVELS", "FleetPier", "LAYOUTS", "apply_layout", "fleet_pier", "fleet_piers",
@@ -147,6 +149,8 @@ def full_layout(n_levels: int, level_heights_m: np.ndarray, rng: np.random.Gener
 #: Sensor layouts by name: each maps the full-layout configuration to that layout's.
 LAYOUTS: dict[str, Callable[[PierConfig], PierConfig]] = {
     "full": lambda config: config,
+    "accel": lambda config: layout_config(config, "accel"),
+    "sparse": lambda config: layout_config(config, "sparse"),
 }
 
 

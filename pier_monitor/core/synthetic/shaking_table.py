@@ -24,10 +24,15 @@ Measurement
     ``recorded_j = gain * signs_j * (u · e_j) / unit_factor + offsets_j + noise``
     (:class:`~pier_monitor.core.model.config.SensorSpec`), the true 3-D motion ``u`` at its level:
     accelerometers the absolute acceleration (foundation: the table's), velocity meters the
-    absolute velocity, displacement transducers the displacement relative to the table (a
-    frame fixed to it).  The offsets of the configuration are the channels' biases (for a
-    DC-coupled vertical accelerometer they include gravity); the noise is white Gaussian with
-    the sensor's ``noise_rms``.
+    absolute velocity, displacement transducers (and a differential GNSS) the displacement
+    relative to the table (a frame fixed to it, or the reference receiver).  The offsets of
+    the configuration are the channels' biases (for a DC-coupled vertical accelerometer they
+    include gravity); the noise is white Gaussian with the sensor's ``noise_rms``.  Each
+    sensor samples at its own rate (``rate_hz`` of the map, else the pier's), on a grid
+    from the start of the recording.  Optionally the true sensors differ from the nominal
+    ones (gain, orientation, tilt, bias: :class:`~pier_monitor.core.synthetic.measurement.
+    SensorImperfections`) and every sensor low-passes its signal before sampling it (anti-
+    aliasing); see :mod:`pier_monitor.core.synthetic.measurement`.
 
 Everything random derives from one seed: the same configuration, scenario and seed give
 bit-identical recordings.
@@ -41,18 +46,22 @@ import json
 import re
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 from scipy import signal
 
-from pier_monitor.core.model.config import PierConfig, PierGeometry, SensorSpec, SpringParameters
+from pier_monitor.core.model.config import PierConfig, PierGeometry, SpringParameters
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.model.ground_motion import synthetic_near_fault
 from pier_monitor.core.model.link_model import natural_periods
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord, sample_times_ns
 from pier_monitor.core.model.solver import Response, simulate
+from pier_monitor.core.synthetic.measurement import (ANTI_ALIAS_CUTOFF_FRACTION, ANTI_ALIAS_ORDER,
+                                                     SensorError, SensorImperfections,
+                                                     anti_alias_filter, draw_sensor_errors,
+                                                     record_sensor)
 
 __all__ = [
     "DEFAULT_START_NS",
@@ -371,15 +380,22 @@ class SyntheticTruth:
     principal_direction_deg : float
         Azimuth of the shaking direction in the pier frame, deg.
     sample_rate_hz : float
-        Rate of every channel, Hz.
+        The pier's rate: of the responses and of every sensor without a rate of its own, Hz.
     start_ns, end_ns : int
-        First sample and one period past the last sample of the recording, ns.
+        First sample and one period (at ``sample_rate_hz``) past the last sample of the
+        recording, ns.
     runs : tuple of RunTruth
         The runs, in order.
     noise_rms : dict of str to float
         Noise RMS of each sensor's channels, in the sensor's unit.
     scenario : Scenario
         The scenario that was played.
+    imperfections : SensorImperfections or None
+        Spread of the sensor errors, when the true sensors differed from the nominal ones.
+    sensor_errors : dict of str to SensorError
+        The errors actually drawn, by sensor id (empty without imperfections).
+    anti_alias : bool
+        Whether every sensor low-passed its signal before sampling it.
     """
 
     seed: int
@@ -391,6 +407,9 @@ class SyntheticTruth:
     runs: tuple[RunTruth, ...]
     noise_rms: Mapping[str, float]
     scenario: Scenario
+    imperfections: SensorImperfections | None = None
+    sensor_errors: Mapping[str, SensorError] = dataclasses.field(default_factory=dict)
+    anti_alias: bool = False
 
     def run(self, name: str) -> RunTruth:
         """The run with this name; :class:`InputDataError` if there is none."""
@@ -478,20 +497,84 @@ def _elastic(params: SpringParameters) -> SpringParameters:
     return SpringParameters(params.k1, params.k2, params.fy * 1e6, params.c)
 
 
-def _record_sensor(spec: SensorSpec, motion: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Apply the configuration's measurement model to the true 3-D motion (T, 3), SI."""
-    directions = np.stack([spec.axis_direction(a) for a in spec.axes])  # (n_axes, 3)
-    projected = motion @ directions.T  # (T, n_axes)
-    signs = np.asarray(spec.signs, dtype=float)
-    offsets = np.asarray(spec.offsets, dtype=float)
-    recorded = spec.gain * signs * projected / spec.si_factor + offsets
-    if spec.noise_rms > 0:
-        recorded = recorded + spec.noise_rms * rng.standard_normal(recorded.shape)
-    return recorded
+def _upsample_linear(x: np.ndarray, factor: int) -> np.ndarray:
+    """Linear interpolation of (S, C) samples to ``factor`` times the rate, (S·factor, C).
+
+    The original samples are kept exactly; after the last one the value is held.
+    """
+    if factor == 1:
+        return x
+    following = np.concatenate([x[1:], x[-1:]])
+    frac = np.arange(factor) / factor
+    return (x[:, None, :] + (following - x)[:, None, :] * frac[None, :, None]).reshape(
+        -1, x.shape[1])
+
+
+def _timeline(scenario: Scenario, rate: float, run_seqs: list[np.random.SeedSequence]
+              ) -> tuple[list[tuple[tuple[int, int, int], tuple[np.ndarray, ...]]], list[int],
+                         int, int]:
+    """Table records of the runs, their first samples, the total and the gap in samples."""
+    n_lead = int(round(scenario.lead_s * rate))
+    n_gap = int(round(scenario.gap_s * rate))
+    n_tail = int(round(scenario.tail_s * rate))
+    records = []
+    starts = []
+    cursor = n_lead
+    for run, seq in zip(scenario.runs, run_seqs):
+        if run.motion_seed is None:
+            seeds = tuple(_child_seed(s) for s in seq.spawn(3))
+        else:  # transverse and vertical records get seeds of their own, derived from it
+            seeds = (int(run.motion_seed),
+                     *(_child_seed(np.random.SeedSequence([int(run.motion_seed), k]))
+                       for k in (1, 2)))
+        comps = _table_records(run, rate, seeds)  # principal, transverse, vertical
+        records.append((seeds, comps))
+        starts.append(cursor)
+        cursor += comps[0].size + n_gap
+    return records, starts, cursor - n_gap + n_tail, n_gap
+
+
+def _motion_vectors(principal_direction_deg: float, table: np.ndarray, table_vel: np.ndarray,
+                    rel: Mapping[str, np.ndarray]) -> Callable[[str, int], np.ndarray]:
+    """A function ``(kind, level) -> (T, 3)``: the true motion of a level, pier frame, SI.
+
+    Accelerometers sense the absolute acceleration, velocity meters the absolute velocity,
+    displacement sensors the displacement relative to the foundation.  Computed once per
+    (kind, level) when first asked for.
+    """
+    phi = np.radians(principal_direction_deg)
+    e_p = np.array([np.cos(phi), np.sin(phi), 0.0])
+    e_t = np.array([-np.sin(phi), np.cos(phi), 0.0])
+    e_z = np.array([0.0, 0.0, 1.0])
+    zeros = np.zeros((table.shape[0], 1))
+    cache: dict[tuple[str, int], np.ndarray] = {}
+
+    def vector(p: np.ndarray, t: np.ndarray, z: np.ndarray | None) -> np.ndarray:
+        """(T, 3) from principal, transverse and vertical components of shape (T, 1)."""
+        out = p * e_p + t * e_t
+        return out if z is None else out + z * e_z
+
+    def motion(kind: str, level: int) -> np.ndarray:
+        if (kind, level) not in cache:
+            # relative motion of the level (the foundation has none)
+            r = {k: rel[k][:, level - 1:level] if level else zeros for k in rel}
+            if kind == "acceleration":
+                out = vector(table[:, 0:1] + r["ap"], table[:, 1:2] + r["at"], table[:, 2:3])
+            elif kind == "velocity":
+                out = vector(table_vel[:, 0:1] + r["vp"], table_vel[:, 1:2] + r["vt"],
+                             table_vel[:, 2:3])
+            else:
+                out = vector(r["xp"], r["xt"], None)
+            cache[kind, level] = out
+        return cache[kind, level]
+
+    return motion
 
 
 def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, seed: int = 0,
-                       principal_direction_deg: float | None = None) -> SyntheticRecording:
+                       principal_direction_deg: float | None = None,
+                       imperfections: SensorImperfections | None = None,
+                       anti_alias: bool = False) -> SyntheticRecording:
     """Simulate a shaking-table test of the pier and record it with its sensor map.
 
     Parameters
@@ -499,21 +582,30 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
     config : PierConfig
         The pier: geometry and design parameters (scaled per run by the scenario) and the
         sensor map (levels, kinds, units, axes, orientations, signs, gains, offsets,
-        noise levels); ``sample_rate_hz`` is the rate of every channel, whose period must be
-        a whole number of milliseconds (the solver's internal step).
+        noise levels, rates); ``sample_rate_hz`` is the rate of the responses and of every
+        sensor without a ``rate_hz`` of its own; its period must be a whole number of
+        milliseconds (the solver's internal step).
     scenario : Scenario, optional
         Runs and quiet stretches; default :func:`edefense_scenario`.
     seed : int
         Seed of everything random (ambient motion, table records without a fixed
-        ``motion_seed``, sensor noise).
+        ``motion_seed``, sensor noise, sensor errors unless ``imperfections.seed`` is set).
     principal_direction_deg : float, optional
         Azimuth of the shaking direction, deg; default the configuration's, else 196°.
+    imperfections : SensorImperfections, optional
+        Record with true sensors that differ from the nominal ones of the configuration
+        (gain, orientation, tilt, bias); the recording keeps the nominal configuration and
+        the truth holds the errors drawn.  Default: the sensors are exactly the nominal ones.
+    anti_alias : bool
+        Low-pass every sensor's signal at 0.4 × its rate on the simulation's 1 ms signal
+        before sampling it (:func:`~pier_monitor.core.synthetic.measurement.anti_alias_filter`).
+        Default: sample the signal as it is.
 
     Returns
     -------
     SyntheticRecording
-        Per-sensor samples (time_ns shape (T,), data shape (T, n_axes) in the sensor's unit)
-        and the ground truth.
+        Per-sensor samples (time_ns shape (T,), data shape (T, n_axes) in the sensor's unit,
+        each sensor on its own grid from the start of the recording) and the ground truth.
 
     Raises
     ------
@@ -538,6 +630,10 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
     if abs(steps - round(steps)) > 1e-9 or round(steps) < 1:
         raise InputDataError(f"sample_rate_hz: the sampling period 1/{rate:g} s must be a whole "
                              f"number of the solver's {_INTERNAL_DT_S * 1e3:g} ms steps")
+    # the motion is simulated at the rate it is sampled from: the pier's, or 1 ms to filter it
+    up = int(round(steps)) if anti_alias else 1
+    motion_rate = rate * up
+    dt_m = 1.0 / motion_rate
     n = config.n_levels
 
     # the runs' piers first: a bad factor fails before anything is simulated
@@ -546,52 +642,37 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
 
     root = np.random.SeedSequence(seed)
     ambient_seq, noise_seq, *run_seqs = root.spawn(2 + len(scenario.runs))
+    errors = ({} if imperfections is None
+              else draw_sensor_errors(config, imperfections, root.spawn(1)[0]))
 
-    # timeline, in samples
-    n_lead = int(round(scenario.lead_s * rate))
-    n_gap = int(round(scenario.gap_s * rate))
-    n_tail = int(round(scenario.tail_s * rate))
-    records = []
-    starts = []
-    cursor = n_lead
-    for run, seq in zip(scenario.runs, run_seqs):
-        if run.motion_seed is None:
-            seeds = tuple(_child_seed(s) for s in seq.spawn(3))
-        else:  # transverse and vertical records get seeds of their own, derived from it
-            seeds = (int(run.motion_seed),
-                     *(_child_seed(np.random.SeedSequence([int(run.motion_seed), k]))
-                       for k in (1, 2)))
-        comps = _table_records(run, rate, seeds)  # principal, transverse, vertical
-        records.append((seeds, comps))
-        starts.append(cursor)
-        cursor += comps[0].size + n_gap
-    total = cursor - n_gap + n_tail
+    records, starts, total, n_gap = _timeline(scenario, rate, run_seqs)
 
     # table acceleration in (principal, transverse, vertical) components, m/s²
     table = _ambient(np.random.default_rng(ambient_seq), total, rate, scenario.ambient_rms_mps2)
     for s0, (_, comps) in zip(starts, records):
         table[s0:s0 + comps[0].size] += np.stack(comps, axis=1)
     table_vel = _integrate(table, dt)
+    table_m = _upsample_linear(table, up)
+    table_vel_m = table_vel if up == 1 else _integrate(table_m, dt_m)
 
-    # structural response, run by run; parameters switch halfway through each gap.  The next
-    # segment starts with the velocities the last one ended with (and, elastic across the
-    # shaking, the transverse displacements): no jump in a velocity meter at the switch.
-    # Its springs start unloaded, the principal drift carried as an offset.
+    # structural response, run by run, at the motion rate; parameters switch halfway through
+    # each gap.  The next segment starts with the velocities the last one ended with (and,
+    # elastic across the shaking, the transverse displacements): no jump in a velocity meter
+    # at the switch.  Its springs start unloaded, the principal drift carried as an offset.
     bounds = [0] + [s - n_gap // 2 for s in starts[1:]] + [total]
-    rel = {k: np.zeros((total, n)) for k in ("xp", "vp", "ap", "xt", "vt", "at")}
+    rel = {k: np.zeros((total * up, n)) for k in ("xp", "vp", "ap", "xt", "vt", "at")}
     offset = np.zeros(n)
     v_end, xt_end, vt_end = np.zeros(n), np.zeros(n), np.zeros(n)
     run_truths: list[RunTruth] = []
     times = sample_times_ns(scenario.start_ns, total, rate)
     end_ns = int(times[-1]) + int(round(NS_PER_S / rate))
     for i, (run, (seeds, comps), s0) in enumerate(zip(scenario.runs, records, starts)):
-        b0, b1 = bounds[i], bounds[i + 1]
+        b0, b1 = bounds[i] * up, bounds[i + 1] * up
         geometry, params = piers[i]
-        resp = simulate(geometry, params, table[b0:b1, 0], dt, dt=_INTERNAL_DT_S, output_dt=dt,
-                        v0=v_end)
-        resp_t = simulate(geometry, _elastic(params), table[b0:b1, 1], dt, dt=_INTERNAL_DT_S,
-                          x0=xt_end, v0=vt_end,
-                          output_dt=dt)
+        resp = simulate(geometry, params, table_m[b0:b1, 0], dt_m, dt=_INTERNAL_DT_S,
+                        output_dt=dt_m, v0=v_end)
+        resp_t = simulate(geometry, _elastic(params), table_m[b0:b1, 1], dt_m,
+                          dt=_INTERNAL_DT_S, x0=xt_end, v0=vt_end, output_dt=dt_m)
         rel["xp"][b0:b1] = resp.x + offset
         rel["vp"][b0:b1] = resp.v
         rel["ap"][b0:b1] = resp.a
@@ -600,7 +681,7 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         rel["at"][b0:b1] = resp_t.a
 
         n_rec = comps[0].size
-        sel = slice(s0 - b0, s0 - b0 + n_rec)
+        sel = slice(s0 * up - b0, (s0 + n_rec) * up - b0, up)  # the record, at the pier's rate
         response = Response(t=np.arange(n_rec) * dt, ag=resp.ag[sel], x=resp.x[sel],
                             v=resp.v[sel], a=resp.a[sel], theta=resp.theta[sel],
                             moment=resp.moment[sel])
@@ -628,40 +709,33 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         offset = offset + resp.x[-1]
         v_end, xt_end, vt_end = resp.v[-1], resp_t.x[-1], resp_t.v[-1]
 
-    # true 3-D motion of every level in the pier frame (X, Y, Z), SI
-    phi = np.radians(principal_direction_deg)
-    e_p = np.array([np.cos(phi), np.sin(phi), 0.0])
-    e_t = np.array([-np.sin(phi), np.cos(phi), 0.0])
-    e_z = np.array([0.0, 0.0, 1.0])
-
-    def vector(p: np.ndarray, t: np.ndarray, z: np.ndarray | None) -> np.ndarray:
-        """(T, 3) from principal, transverse and vertical components of shape (T, 1)."""
-        out = p * e_p + t * e_t
-        return out if z is None else out + z * e_z
-
-    zeros = np.zeros((total, 1))
-    motions: dict[tuple[str, int], np.ndarray] = {}
-    for level in range(n + 1):
-        # relative motion of the level (the foundation has none)
-        r = {k: rel[k][:, level - 1:level] if level else zeros for k in rel}
-        motions["acceleration", level] = vector(table[:, 0:1] + r["ap"], table[:, 1:2] + r["at"],
-                                                table[:, 2:3])
-        motions["velocity", level] = vector(table_vel[:, 0:1] + r["vp"],
-                                            table_vel[:, 1:2] + r["vt"], table_vel[:, 2:3])
-        motions["displacement", level] = vector(r["xp"], r["xt"], None)
-
+    # every sensor samples the true motion of its level on its own grid
+    motion = _motion_vectors(principal_direction_deg, table_m, table_vel_m, rel)
+    filtered: dict[tuple[str, int, float], np.ndarray] = {}
     sensor_seqs = noise_seq.spawn(len(config.sensors))
     sensors: dict[str, SensorRecord] = {}
     for spec, seq in zip(config.sensors, sensor_seqs):
-        data = _record_sensor(spec, motions[spec.kind, spec.level], np.random.default_rng(seq))
-        sensors[spec.sensor_id] = SensorRecord(spec.sensor_id, times, data, rate)
+        sensor_rate = config.sensor_rate_hz(spec)
+        key = (spec.kind, spec.level, sensor_rate)
+        if key not in filtered:
+            signal_m = motion(spec.kind, spec.level)
+            if anti_alias:
+                signal_m = anti_alias_filter(signal_m, motion_rate, sensor_rate)
+            filtered[key] = signal_m[::int(round(motion_rate / sensor_rate))]
+        sampled = filtered[key]
+        data = record_sensor(spec, sampled, np.random.default_rng(seq),
+                             errors.get(spec.sensor_id))
+        sensors[spec.sensor_id] = SensorRecord(
+            spec.sensor_id, sample_times_ns(scenario.start_ns, sampled.shape[0], sensor_rate),
+            data, sensor_rate)
 
     source = f"synthetic shaking-table recording of {config.pier_id} (seed {seed})"
     truth = SyntheticTruth(
         seed=int(seed), pier_id=config.pier_id,
         principal_direction_deg=float(principal_direction_deg), sample_rate_hz=rate,
         start_ns=int(times[0]), end_ns=end_ns, runs=tuple(run_truths),
-        noise_rms={s.sensor_id: s.noise_rms for s in config.sensors}, scenario=scenario)
+        noise_rms={s.sensor_id: s.noise_rms for s in config.sensors}, scenario=scenario,
+        imperfections=imperfections, sensor_errors=errors, anti_alias=anti_alias)
     # the operators record added deck mass as a configuration update before the run
     updates = tuple((int(times[bounds[i]]), dataclasses.replace(config, geometry=piers[i][0]))
                     for i in range(1, len(piers)) if piers[i][0] != config.geometry)
@@ -682,8 +756,10 @@ def _truth_json(truth: SyntheticTruth, config: PierConfig | None) -> dict[str, A
         if sid in units:
             spec = config.sensor(sid)  # type: ignore[union-attr]
             entry.update(unit=units[sid], kind=kinds[sid], noise_rms_si=rms * spec.si_factor)
+            if spec.rate_hz is not None:
+                entry.update(rate_hz=spec.rate_hz)
         noise[sid] = entry
-    return {
+    out = {
         "format": "pier_monitor synthetic truth 1",
         "seed": truth.seed,
         "pier_id": truth.pier_id,
@@ -705,6 +781,24 @@ def _truth_json(truth: SyntheticTruth, config: PierConfig | None) -> dict[str, A
         "noise": noise,
         "scenario": truth.scenario.as_dict(),
     }
+    # measurement realism, only when used (the shaking-table truth files stay as they were)
+    if truth.anti_alias:
+        out["anti_alias"] = {
+            "filter": f"Butterworth low-pass of order {ANTI_ALIAS_ORDER}, zero-phase (forward "
+                      "and backward) on the 1 ms simulated signal, before sampling",
+            "cutoff_fraction_of_sensor_rate": ANTI_ALIAS_CUTOFF_FRACTION}
+    if truth.imperfections is not None:
+        out["imperfections"] = truth.imperfections.as_dict()
+    if truth.sensor_errors:
+        out["sensor_errors_conventions"] = (
+            "true sensor = nominal sensor of the configuration with each channel's gain times "
+            "gain_factors, azimuth + orientation_error_deg, tilted by tilt_deg about the pier's "
+            "X and Y axes; offset_error = static reading the configuration's offsets miss "
+            "(tilted gravity, gain error on gravity, bias), in the sensor's unit (_si: SI)")
+        out["sensor_errors"] = {
+            sid: err.as_dict(config.sensor(sid) if sid in units else None)  # type: ignore[union-attr]
+            for sid, err in truth.sensor_errors.items()}
+    return out
 
 
 _SCALAR_LIST = re.compile(r"\[\s*([^\[\]{}]*?)\s*\]", re.DOTALL)
@@ -783,13 +877,18 @@ def load_truth(npz_path: str | Path, json_path: str | Path) -> SyntheticTruth:
                 pga_mps2=float(r["pga_mps2"]),
                 motion_seeds=tuple(int(s) for s in r["motion_seeds"]),
             ))
+        imperfections = meta.get("imperfections")
         return SyntheticTruth(
             seed=int(meta["seed"]), pier_id=meta["pier_id"],
             principal_direction_deg=float(meta["principal_direction_deg"]),
             sample_rate_hz=float(meta["sample_rate_hz"]), start_ns=int(meta["start_ns"]),
             end_ns=int(meta["end_ns"]), runs=tuple(runs),
             noise_rms={k: float(v["noise_rms"]) for k, v in meta["noise"].items()},
-            scenario=scenario)
+            scenario=scenario,
+            imperfections=None if imperfections is None else SensorImperfections(**imperfections),
+            sensor_errors={k: SensorError.from_dict(v)
+                           for k, v in meta.get("sensor_errors", {}).items()},
+            anti_alias="anti_alias" in meta)
     except (KeyError, TypeError) as err:
         raise InputDataError(f"{json_path.name}: incomplete synthetic truth ({err!r} missing "
                              "or malformed)") from err
