@@ -5,18 +5,30 @@
 
 Both children share the namespace (relative topics: one namespace per pier) and the
 parameters file.  Ctrl-C (or SIGTERM) is passed on to both; a child that has not exited
-after ``--grace`` seconds is killed.  The exit code is the first non-zero child code.
+after ``--grace`` seconds is killed.  The exit code is the first non-zero child code.  On
+Linux the children get SIGTERM (a clean shutdown) when this script dies in any way, also
+killed: no node is left running without it.
 """
 
 from __future__ import annotations
 
 import argparse
+import ctypes
 import signal
 import subprocess
 import sys
 import time
 
 NODES = ("pier_monitor.nodes.ingest_node", "pier_monitor.nodes.identifier_node")
+_PR_SET_PDEATHSIG = 1
+# resolved before any fork: the child only makes the call
+_LIBC = ctypes.CDLL(None, use_errno=True) if sys.platform.startswith("linux") else None
+
+
+def _term_with_parent() -> None:
+    """In the child before exec: SIGTERM when this script's process dies."""
+    if _LIBC is not None:
+        _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -33,8 +45,8 @@ def main(argv: list[str] | None = None) -> int:
     ros_args += extra
     modules = [m for m in NODES if args.only is None or m.endswith(f"{args.only}_node")]
     # own sessions: a terminal's Ctrl-C reaches this script only, which passes it on once
-    children = [subprocess.Popen([sys.executable, "-m", m, *ros_args], start_new_session=True)
-                for m in modules]
+    children = [subprocess.Popen([sys.executable, "-m", m, *ros_args], start_new_session=True,
+                                 preexec_fn=_term_with_parent) for m in modules]
     stopping = False
 
     def stop(signum: int, _frame: object) -> None:

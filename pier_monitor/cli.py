@@ -7,6 +7,9 @@ simulate  simulate a pier under a ground motion; write responses (.npz) or a syn
           ground truth
 bench     benchmarks against known truth (prints a table, ``--json`` writes results)
 identify  ingest a bag, identify every event with the PINN, write results and figures
+          (exit status: 0 every event identified and reliable, 1 an event failed or was
+          cut or the bag is damaged, 2 an error and nothing identified, 3 an event's
+          result is unreliable and none failed)
 fleet     identify every event of many bags on a process pool or a Ray cluster
 compare   change between two identification results of the same pier
 demo      the main job on the embedded default data
@@ -29,6 +32,7 @@ from pier_monitor.bags.synthetic_fleet import FLEET_TRUTH_JSON, write_synthetic_
 from pier_monitor.bench import DEFAULT_SUITES, SUITES, format_table
 from pier_monitor.core.errors import PierMonitorError, ReportError
 from pier_monitor.core.identify.damage import ductility_factors
+from pier_monitor.core.ingest.settings import Finding, fmt_span
 from pier_monitor.core.model.config import load_config
 from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
 from pier_monitor.core.model.solver import simulate
@@ -36,6 +40,7 @@ from pier_monitor.core.synthetic.measurement import SensorImperfections
 from pier_monitor.core.synthetic.reference import table1_model
 from pier_monitor.fleet import FleetOptions, FleetProgress, LocalPool, RayBackend, run_fleet
 from pier_monitor.pinn import PinnSettings
+from pier_monitor.events import EventOutcome
 from pier_monitor.pipeline import BagOutcome, identify_bag
 from pier_monitor.progress import TrainingProgress
 from pier_monitor.report._common import format_df
@@ -43,7 +48,8 @@ from pier_monitor.report.compare import write_comparison
 from pier_monitor.report.results import load_result
 from pier_monitor.report.tables import uncertainty_table
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "ingest_summary", "EXIT_OK", "EXIT_FAILED", "EXIT_ERROR",
+           "EXIT_UNRELIABLE"]
 
 
 def _positive_float(text: str) -> float:
@@ -143,13 +149,19 @@ def build_parser() -> argparse.ArgumentParser:
         description="Read a bag (rosbag2 directory or .mcap with the pier configuration "
                     "inside), detect the mainshock windows, identify k1, k2, fy, c of every "
                     "section with the PINN and write one results directory per event "
-                    "(window.npz, result.json, damage_state.mcap, figures).")
+                    "(window.npz, result.json, damage_state.mcap, figures; failed.json for "
+                    "an event that failed). Exit status: 0 every event identified and "
+                    "reliable; 1 an event failed or was cut, or the bag is damaged (the "
+                    "other events still have results); 2 an error, nothing identified; 3 an "
+                    "event's result is unreliable (failed its self-check) and none failed.")
     ident.add_argument("bag", type=Path, metavar="BAG", help="rosbag2 directory or .mcap file")
     ident.add_argument("--out", type=Path, default=None,
                        help="results root (default results/<bag name>)")
     ident.add_argument("--pier", type=Path, default=None,
                        help="pier configuration YAML to use instead of the bag's (required for "
                             "a bag recorded without one)")
+    ident.add_argument("--no-figures", action="store_true",
+                       help="no per-event figures (a few seconds less per event)")
     _add_training_options(ident)
 
     fleet = sub.add_parser(
@@ -232,22 +244,61 @@ def _settings(args: argparse.Namespace) -> PinnSettings:
 
 
 def _identify(bag: Path, out: Path, args: argparse.Namespace,
-              pier: Path | None = None) -> BagOutcome:
+              pier: Path | None = None, figures: bool = True) -> BagOutcome:
     """Run :func:`pier_monitor.pipeline.identify_bag` with training progress on stderr."""
     settings = _settings(args)
     config = load_config(pier) if pier is not None else None
     if args.no_progress:
-        return identify_bag(bag, out, settings=settings, config=config)
+        return identify_bag(bag, out, settings=settings, config=config, figures=figures)
     with TrainingProgress() as progress:
-        return identify_bag(bag, out, settings=settings, progress=progress, config=config)
+        return identify_bag(bag, out, settings=settings, progress=progress, config=config,
+                            figures=figures)
 
 
-def _print_outcome(outcome: BagOutcome) -> None:
-    """Per-event tables of the identified sections (and their uncertainty, for an ensemble)."""
-    if not outcome.events:
-        print(f"{outcome.bag}: no mainshock found; nothing to identify")
-    for ev in outcome.events:
-        r = ev.result
+#: Exit status of ``identify`` and ``demo``: every event identified and reliable; an event
+#: failed (ingest, cut by the data's edge, training) or the bag is damaged; an error before
+#: anything was identified; an event's result unreliable (none failed).
+EXIT_OK, EXIT_FAILED, EXIT_ERROR, EXIT_UNRELIABLE = 0, 1, 2, 3
+#: Lines of ingest findings printed per event (the full list is in result.json).
+SUMMARY_LINES = 6
+
+
+def _exit_status(outcome: BagOutcome) -> int:
+    """The exit status of an identified bag (see :data:`EXIT_OK` and the others)."""
+    if outcome.with_status("failed", "cut") or outcome.bag_findings:
+        return EXIT_FAILED
+    return EXIT_UNRELIABLE if outcome.with_status("unreliable") else EXIT_OK
+
+
+def ingest_summary(findings: Sequence[Finding], limit: int = SUMMARY_LINES) -> list[str]:
+    """A few lines on what the ingest repaired or excluded in an event, by sensor and time.
+
+    Findings of one sensor channel with the same code and action are one line (with their
+    count and the first time); ``noted`` findings are only counted.
+    """
+    groups: dict[tuple[str, str, str], list[Finding]] = {}
+    for f in findings:
+        if f.action != "noted":
+            groups.setdefault((f.action, f.where, f.code), []).append(f)
+    if not groups:
+        return []
+    lines = [f"ingest: {len(findings)} findings (all in result.json / failed.json)"]
+    for (action, where, code), group in list(groups.items())[:limit]:
+        first = group[0]
+        times = fmt_span(first.start_ns, first.end_ns)
+        more = f" (x{len(group)}, first {times})" if len(group) > 1 else f" ({times})"
+        lines.append(f"  {action:<9} {where}: {code}{more}")
+    if len(groups) > limit:
+        lines.append(f"  ... and {len(groups) - limit} more")
+    return lines
+
+
+def _print_event(ev: EventOutcome) -> None:
+    """One event: its table of sections, or why it has none; its ingest summary."""
+    r = ev.result
+    if ev.status in ("failed", "cut"):
+        print(f"\nevent {r.event_id}: {ev.status.upper()}: {r.message}")
+    else:
         w = ev.window
         print(f"\nevent {r.event_id}: window {w.duration_s:.1f} s, trained {r.epochs} epochs "
               f"in {r.wall_time_s:.1f} s on {r.device}; overall state {r.overall_state.upper()}")
@@ -260,21 +311,45 @@ def _print_outcome(outcome: BagOutcome) -> None:
             print(f"{sec.index + 1:>8} {sec.z_bottom_m:>5.1f}-{sec.z_top_m:<5.1f} {sec.k1:>13.4g} "
                   f"{k2:>13} {fy:>10} {sec.c:>14.4g} {format_df(sec.ductility_factor, sec.yielded):>7} "
                   f"{sec.state:>10} {ch:>10}")
+        for reason in r.unreliable_reasons:
+            print(f"unreliable: {reason}")
         table = uncertainty_table(r)
         if table:
             print(table)
-        print(f"results: {ev.out_dir}")
+    findings = ev.ingest.findings if ev.ingest is not None else r.findings
+    for line in ingest_summary(findings):
+        print(line)
+    print(f"results: {ev.out_dir}")
+
+
+def _print_outcome(outcome: BagOutcome) -> None:
+    """Per-event tables of the identified sections (and their uncertainty, for an ensemble),
+    the failed events with their reasons, and the warnings on the bag itself."""
+    for f in outcome.bag_findings:
+        print(f"pier-monitor: warning: {f.where}: {f.message}", file=sys.stderr)
+    if not outcome.events:
+        print(f"{outcome.bag}: no mainshock found; nothing to identify")
+    for ev in outcome.events:
+        _print_event(ev)
+    if outcome.events:
+        counts = {k: len(outcome.with_status(k))
+                  for k in ("identified", "unreliable", "failed", "cut")}
+        print(f"\n{len(outcome.events)} events: "
+              + ", ".join(f"{n} {k}" for k, n in counts.items() if n))
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     out = args.out if args.out is not None else Path("results") / args.bag.name.removesuffix(".mcap")
-    outcome = _identify(args.bag, out, args, pier=args.pier)
+    _check_out(out)
+    outcome = _identify(args.bag, out, args, pier=args.pier, figures=not args.no_figures)
     _print_outcome(outcome)
-    return 0
+    return _exit_status(outcome)
 
 
 def _check_out(path: Path) -> None:
     """Refuse an output path below an existing file, naming it (before any work is done)."""
+    if not str(path).strip():
+        raise ReportError("--out: empty path")
     for parent in path.parents:
         if parent.exists():
             if not parent.is_dir():
@@ -443,6 +518,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
+    _check_out(args.out / "identified")
     args.out.mkdir(parents=True, exist_ok=True)
     bag = args.out / "edefense_synthetic"
     # the demo's own output of an earlier run
@@ -454,15 +530,16 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     print(_bag_summary(info))
     outcome = _identify(bag, args.out / "identified", args)
     _print_outcome(outcome)
-    if len(outcome.events) >= 2:
-        first, last = outcome.events[0], outcome.events[-1]
+    compared = [ev for ev in outcome.events if ev.result.success]
+    if len(compared) >= 2:
+        first, last = compared[0], compared[-1]
         comparison, paths = write_comparison(first.result, last.result, args.out,
                                              sources=(str(first.out_dir), str(last.out_dir)))
         print("\ncomparison of the first and the last event")
         print(comparison.table())
         print("\n".join(comparison.summary_lines()))
         print(f"figures: {paths.profile_png} and in each event directory")
-    return 0
+    return _exit_status(outcome)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
@@ -494,7 +571,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _COMMANDS[args.command](args)
     except PierMonitorError as err:
         print(f"pier-monitor {args.command}: error: {err}", file=sys.stderr)
-        return 2
+        return EXIT_ERROR
 
 
 if __name__ == "__main__":  # pragma: no cover

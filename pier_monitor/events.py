@@ -2,9 +2,10 @@
 
 :func:`identify_window` is what happens to every mainshock window, whether it comes from a
 bag (:func:`pier_monitor.pipeline.identify_bag`, offline) or from the live ingest (the
-identifier node): store the window, choose the baseline, train, write the results, and
-return them.  The rules (where files go, which earlier event is the baseline, what a
-failure leaves behind) are those of :class:`~pier_monitor.report.store.ResultsStore`.
+identifier node): store the window, choose the baseline, train, check the result, write
+the results, and return them.  The rules (where files go, which earlier event is the
+baseline, what a failure leaves behind) are those of
+:class:`~pier_monitor.report.store.ResultsStore`.
 """
 
 from __future__ import annotations
@@ -13,7 +14,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from pier_monitor.core.identify.checks import check_identification
 from pier_monitor.core.identify.damage import IdentificationResult, failed_result
+from pier_monitor.core.ingest.settings import EventIngest
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.pinn import PinnSettings, Progress, identify
 from pier_monitor.report.results import ResultsPaths, write_results
@@ -31,29 +34,45 @@ class TrainingStopped(Exception):  # noqa: N818 - a signal, not an error of the 
 
 @dataclass(frozen=True)
 class EventOutcome:
-    """What :func:`identify_window` did with one window.
+    """What became of one event: identified, unreliable, or failed.
 
     Attributes
     ----------
-    window : MeasuredWindow
-        The window identified.
+    window : MeasuredWindow or None
+        The window identified; None when the ingest gave no window (see ``ingest``).
     result : IdentificationResult
-        The saved result; ``result.success`` is false when the training failed (every
-        section ``unknown``, the reason in ``result.message``).
+        The saved result; ``result.success`` is false when the training or the ingest
+        failed (every section ``unknown``, the reason in ``result.message``), and its
+        states are ``unreliable`` when it failed its self-check
+        (``result.unreliable_reasons``).
     out_dir : Path
         The event's results directory.
-    window_file : Path
-        The stored window.
+    window_file : Path or None
+        The stored window (None without a window).
     paths : ResultsPaths or None
         The files written for a successful identification; None after a failure (then
         ``out_dir / "failed.json"`` holds the result).
+    ingest : EventIngest or None
+        What the ingest made of the event (its findings, or why it gave no window), when
+        known (offline: always; a window received live: None).
     """
 
-    window: MeasuredWindow
+    window: MeasuredWindow | None
     result: IdentificationResult
     out_dir: Path
-    window_file: Path
+    window_file: Path | None
     paths: ResultsPaths | None
+    ingest: EventIngest | None = None
+
+    @property
+    def status(self) -> str:
+        """``identified``, ``unreliable``, ``failed`` (training or ingest) or ``cut`` (the
+        data begin or end during the event)."""
+        if self.ingest is not None and self.ingest.window is None:
+            return "cut" if self.ingest.status == "cut" else "failed"
+        if not self.result.success:
+            return "failed"
+        return "unreliable" if self.result.unreliable_reasons else "identified"
 
 
 def identify_window(window: MeasuredWindow, settings: PinnSettings, store: ResultsStore, *,
@@ -65,7 +84,11 @@ def identify_window(window: MeasuredWindow, settings: PinnSettings, store: Resul
     2. The baseline is :meth:`ResultsStore.baseline_for` (the earliest earlier successful
        result of the same pier; none: the design values).
     3. The PINN trains (:func:`pier_monitor.pinn.identify`).
-    4. The results are written (:func:`~pier_monitor.report.results.write_results`).
+    4. The result checks itself
+       (:func:`~pier_monitor.core.identify.checks.check_identification`): any reason makes
+       it *unreliable* — every state ``unreliable``, never intact, suspicious or damaged.
+    5. The results are written (:func:`~pier_monitor.report.results.write_results`), with
+       the window's ingest findings.
 
     A training that fails (a NaN loss, no GPU for ``device="cuda"``, out of memory) does not
     raise: it is recorded in the store as a failed result, which is returned.
@@ -108,7 +131,8 @@ def identify_window(window: MeasuredWindow, settings: PinnSettings, store: Resul
         store.record_failure(failed)
         return EventOutcome(window=window, result=failed, out_dir=out_dir,
                             window_file=window_file, paths=None)
+    reasons = check_identification(run.result.params, run.reproduced, window)
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
-                            members=run.members)
+                            check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,
                         window_file=window_file, paths=written.paths)

@@ -1,12 +1,20 @@
 """Offline identification of a bag: read → ingest → one event at a time (SPEC §8).
 
-``identify_bag`` is what ``pier-monitor identify BAG`` runs: every detected event of the bag
-goes through :func:`pier_monitor.events.identify_window`, the step the live identifier node
-runs as well, into one results directory ``<out>/<event_id>/`` with ``window.npz`` (stored
-before training starts, so that a crash loses no event), ``damage_state.mcap``, the figures
-and ``result.json``.  Events are identified in time order; the baseline of each is the
-earliest earlier result of the same pier in ``out`` (:class:`~pier_monitor.report.store.
-ResultsStore`): in an empty directory, the first event of the bag.
+``identify_bag`` is what ``pier-monitor identify BAG`` runs.  Every event the ingest detects
+gets an outcome of its own, and one event's failure never costs another its result:
+
+* an event with a window goes through :func:`pier_monitor.events.identify_window`, the step
+  the live identifier node runs as well, into ``<out>/<event_id>/`` with ``window.npz``
+  (stored before training starts, so that a crash loses no event), ``damage_state.mcap``,
+  the figures and ``result.json`` — identified, or *unreliable* when the result failed its
+  self-check, or ``failed.json`` when the training failed;
+* an event the ingest could give no window of (a level left without usable sensors, the data
+  ending during it) gets ``<out>/<event_id>/failed.json`` with the ingest's reason, naming
+  the level, sensors, time and cause.
+
+Events are identified in time order; the baseline of each is the earliest earlier reliable
+result of the same pier in ``out`` (:class:`~pier_monitor.report.store.ResultsStore`): in an
+empty directory, the first event of the bag.
 """
 
 from __future__ import annotations
@@ -16,8 +24,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pier_monitor.bags import read_bag
-from pier_monitor.core.errors import BagError, IdentificationError
+from pier_monitor.core.errors import BagError, IdentificationError, InputDataError
+from pier_monitor.core.identify.damage import failed_event_result, failed_result
 from pier_monitor.core.ingest import IngestReport, IngestSettings, ingest_recording
+from pier_monitor.core.ingest.recording import NS_PER_S, Recording
+from pier_monitor.core.ingest.settings import EventIngest, Finding
 from pier_monitor.core.model.config import PierConfig
 from pier_monitor.events import EventOutcome, identify_window
 from pier_monitor.pinn import PinnSettings, Progress
@@ -28,17 +39,34 @@ __all__ = ["BagOutcome", "identify_bag"]
 
 @dataclass(frozen=True)
 class BagOutcome:
-    """Everything ``identify_bag`` did with one bag."""
+    """Everything ``identify_bag`` did with one bag.
+
+    Attributes
+    ----------
+    bag : Path
+    events : tuple of EventOutcome
+        One per detected event, in time order (identified, unreliable, failed or cut).
+    ingest_report : IngestReport
+        Every finding of the ingest, by sensor and time.
+    bag_findings : tuple of Finding
+        What reading the bag found (e.g. ``bag_truncated``: where its data end).
+    """
 
     bag: Path
     events: tuple[EventOutcome, ...]
     ingest_report: IngestReport
+    bag_findings: tuple[Finding, ...] = ()
+
+    def with_status(self, *statuses: str) -> list[EventOutcome]:
+        """The events whose :attr:`EventOutcome.status` is one of ``statuses``."""
+        return [ev for ev in self.events if ev.status in statuses]
 
 
 def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings | None = None,
                  ingest_settings: IngestSettings | None = None,
                  config: PierConfig | None = None,
-                 progress: Callable[[str, Progress], None] | None = None) -> BagOutcome:
+                 progress: Callable[[str, Progress], None] | None = None,
+                 figures: bool = True) -> BagOutcome:
     """Identify every event of a bag and write one results directory per event.
 
     Parameters
@@ -57,16 +85,24 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings
         without one).
     progress : callable, optional
         ``progress(event_id, Progress)`` after every epoch.
+    figures : bool
+        Also draw each event's report figures (a few seconds per event).
+
+    Returns
+    -------
+    BagOutcome
+        One outcome per event, failed ones included: a failed event (ingest or training)
+        raises nothing, its ``failed.json`` says why.
 
     Raises
     ------
     BagError
         The bag cannot be read (names the file and what was wrong).
+    IngestError
+        Nothing of the bag can be ingested (e.g. every sensor contradicts the configured
+        sample rate; the message says so).
     ReportError
         ``out_dir`` cannot be written (names it).
-    IdentificationError
-        A training failed (its ``failed.json`` and the window stay on disk; the events
-        before it are written).
     """
     bag = Path(bag)
     store = ResultsStore(out_dir).create()
@@ -74,16 +110,47 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings
     if not recording.sensors:
         raise BagError(f"{bag}: the bag holds no samples of any sensor of the configuration's "
                        f"map ({len(recording.config.sensors)} sensors listed)")
-    windows, report = ingest_recording(recording, ingest_settings)
+    _, report = ingest_recording(recording, ingest_settings)
     settings = settings or PinnSettings()
     events = []
-    for window in windows:
+    for ingest in report.outcomes:
+        if ingest.window is None:
+            events.append(_record_ingest_failure(ingest, recording, store))
+            continue
         callback = None
         if progress is not None:
-            callback = (lambda p, eid=window.event_id: progress(eid, p))
-        outcome = identify_window(window, settings, store, progress=callback)
-        if not outcome.result.success:
-            raise IdentificationError(f"{window.event_id}: {outcome.result.message} (window and "
-                                      f"failure record in {outcome.out_dir})")
-        events.append(outcome)
-    return BagOutcome(bag=bag, events=tuple(events), ingest_report=report)
+            callback = (lambda p, eid=ingest.event_id: progress(eid, p))
+        events.append(_identify(ingest, settings, store, callback, figures))
+    return BagOutcome(bag=bag, events=tuple(events), ingest_report=report,
+                      bag_findings=recording.findings)
+
+
+def _identify(ingest: EventIngest, settings: PinnSettings, store: ResultsStore,
+              progress: Callable[[Progress], None] | None, figures: bool) -> EventOutcome:
+    """One event with a window; a failure is recorded and returned, never raised."""
+    window = ingest.window
+    try:
+        outcome = identify_window(window, settings, store, progress=progress, figures=figures)
+    except (IdentificationError, InputDataError) as err:  # bad window or result: this event
+        failed = failed_result(window, device=settings.device,
+                               message=f"identification failed: {type(err).__name__}: {err}")
+        store.record_failure(failed)
+        return EventOutcome(window=window, result=failed, out_dir=store.event_dir(
+            window.event_id), window_file=store.window_file(window.event_id), paths=None,
+            ingest=ingest)
+    return EventOutcome(window=outcome.window, result=outcome.result, out_dir=outcome.out_dir,
+                        window_file=outcome.window_file, paths=outcome.paths, ingest=ingest)
+
+
+def _record_ingest_failure(ingest: EventIngest, recording: Recording,
+                           store: ResultsStore) -> EventOutcome:
+    """An event without a window: its failure record, with the ingest's reason."""
+    config = recording.config_at(ingest.start_ns)
+    result = failed_event_result(
+        config.geometry, pier_id=config.pier_id, event_id=ingest.event_id,
+        start_ns=ingest.start_ns, duration_s=(ingest.end_ns - ingest.start_ns) / NS_PER_S,
+        window_start_s=(ingest.start_ns - recording.start_ns) / NS_PER_S,
+        message=f"ingest: {ingest.failure}", findings=ingest.findings)
+    path = store.record_failure(result)
+    return EventOutcome(window=None, result=result, out_dir=path.parent, window_file=None,
+                        paths=None, ingest=ingest)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run the test suite in the project's venv (set up first if needed).
 # Arguments go to pytest; with none, pytest.ini's defaults apply (testpaths = test,
-# -m "not slow"). Examples:
+# -m "not slow"); test/conftest.py runs every test process with one BLAS/OpenMP thread
+# (OMP_NUM_THREADS etc., unless set). Examples:
 #   bash scripts/test.sh                                   # all but slow tests
 #   bash scripts/test.sh test/integration/test_messages.py
 #   bash scripts/test.sh -m slow                           # only the slow tests

@@ -8,13 +8,20 @@ from __future__ import annotations
 
 import itertools
 import os
-import subprocess
 import sys
 from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
-from ros_helpers import MSG_DIR, REPO_ROOT, RosProcess, assert_fields_equal
+from ros_helpers import (MSG_DIR, REPO_ROOT, RosProcess, assert_fields_equal, kill_children,
+                         start_child)
+
+# One BLAS/OpenMP thread per test process and for its children (nodes, pool workers), set
+# before anything imports numpy or torch (nothing above does): on a shared 2-core machine,
+# multi-threaded matrix products ran more than 10x slower under load than single-threaded
+# ones.  A value in the environment wins.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 # ROS_DOMAIN_IDs 1..101 (0 is everyone's default). Each test takes the next one; the start
 # depends on the process id so that test runs started together rarely share a domain.
@@ -69,23 +76,20 @@ def spawn_python(ros_env: dict[str, str]) -> Iterator[Callable[..., RosProcess]]
     """Start ``python -c CODE ARGS...`` with the venv interpreter in this test's ROS graph.
 
     stdout and stderr come back merged, line by line; stdin stays open until ``stop()``.
-    Children still running at the end of the test are killed.
+    Children still running at the end of the test are killed with their process groups, and
+    every child dies with the test process (:func:`ros_helpers.start_child`).
     """
     children: list[RosProcess] = []
 
     def spawn(code: str, *args: str) -> RosProcess:
-        popen = subprocess.Popen(
-            [sys.executable, "-c", code, *args], env=ros_env, cwd=REPO_ROOT, text=True,
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-        child = RosProcess(popen)
+        child = start_child([sys.executable, "-c", code, *args], ros_env, REPO_ROOT)
         children.append(child)
         return child
 
-    yield spawn
-    for child in children:
-        if child.popen.poll() is None:
-            child.popen.kill()
-            child.popen.wait()
+    try:
+        yield spawn
+    finally:
+        kill_children(children)
 
 
 @pytest.fixture(scope="session")

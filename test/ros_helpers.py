@@ -8,14 +8,17 @@ module (conftest.py does, also for the unit tests) never loads them.
 
 from __future__ import annotations
 
+import atexit
 import math
 import numbers
 import os
 import selectors
 import signal
 import subprocess
+import sys
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +36,50 @@ RUN_MODULE = ("import runpy, sys; module = sys.argv.pop(1); "
               "runpy.run_module(module, run_name='__main__', alter_sys=True)")
 
 
+#: Children started by :func:`start_child` in this process (killed at exit at the latest).
+_CHILDREN: list[subprocess.Popen[str]] = []
+#: Run before the child's command: die with the test process however it ends (a failed or
+#: killed test run never leaves nodes behind), then exec the command.  PR_SET_PDEATHSIG (1)
+#: survives the exec; the parent check closes the race with a parent that died first.
+_DIE_WITH_PARENT = ("import ctypes, os, signal, sys; "
+                    "ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL); "
+                    "os.getppid() == int(sys.argv[1]) or os._exit(70); "
+                    "os.execvp(sys.argv[2], sys.argv[2:])")
+
+
+def start_child(cmd: Sequence[str], env: dict[str, str], cwd: Path | str) -> RosProcess:
+    """Start ``cmd`` with merged stdout/stderr and stdin open, in a process group of its own.
+
+    The child is killed when this process dies (also by SIGKILL or a timeout's
+    ``os._exit``), and :func:`kill_children` kills its whole group (a graph script's nodes
+    included).  Call it from the main thread: the death signal follows the thread that
+    started the child.
+    """
+    popen = subprocess.Popen([sys.executable, "-c", _DIE_WITH_PARENT, str(os.getpid()), *cmd],
+                             env=env, cwd=cwd, text=True, stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                             start_new_session=True)
+    _CHILDREN.append(popen)
+    return RosProcess(popen)
+
+
+def kill_children(children: Sequence[RosProcess] | None = None) -> None:
+    """SIGKILL the process groups of children still running (default: all of them)."""
+    popens = _CHILDREN if children is None else [c.popen for c in children]
+    for popen in list(popens):
+        if popen.poll() is None:
+            try:
+                os.killpg(popen.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            popen.wait()
+        if popen in _CHILDREN:
+            _CHILDREN.remove(popen)
+
+
+atexit.register(kill_children)
+
+
 class RosProcess:
     """A child Python process of the venv interpreter, with a deadline-bound line reader."""
 
@@ -44,12 +91,18 @@ class RosProcess:
         self._pending = b""  # read from the pipe, not yet split into lines
         self.lines: list[str] = []
 
-    def wait_for_line(self, expected: str, timeout_s: float) -> str:
-        """Read stdout until a line starting with ``expected``; fail after ``timeout_s``."""
+    def wait_for_line(self, expected: str, timeout_s: float, *, anywhere: bool = False) -> str:
+        """Read stdout until a line starting with ``expected`` (holding it, with
+        ``anywhere``); fail after ``timeout_s``.  Lines read before stay in :attr:`lines`
+        and are searched too (with ``anywhere``)."""
+        if anywhere:
+            for line in self.lines:
+                if expected in line:
+                    return line
         deadline = time.monotonic() + timeout_s
         while (line := self._next_line(deadline)) is not None:
             self.lines.append(line)
-            if line.startswith(expected):
+            if line.startswith(expected) or (anywhere and expected in line):
                 return line
         pytest.fail(f"child process did not print {expected!r} within {timeout_s} s "
                     f"(exit code {self.popen.poll()}); its output:\n" + "\n".join(self.lines))
@@ -88,8 +141,7 @@ class RosProcess:
         try:
             return self.popen.wait(timeout=timeout_s)
         except subprocess.TimeoutExpired:
-            self.popen.kill()
-            self.popen.wait()
+            kill_children([self])
             raise
         finally:
             self._selector.close()
@@ -120,11 +172,13 @@ def assert_fields_equal(expected: Any, actual: Any, path: str = "msg") -> None:
 def check_markers(markers: Any, result: Any) -> None:
     """Cylinders and labels of a decoded MarkerArray against a result's sections.
 
-    Colours: intact green, suspicious amber, damaged red, unknown grey; labels
-    ``S<n> <state> DF <DF> k1 <change> %``.
+    Colours: intact green, suspicious amber, damaged red, unknown and unreliable grey;
+    labels ``S<n> <state> DF <DF> k1 <change> %`` (no diagnosis: ``S<n> <state>: no
+    diagnosis``).
     """
     rgba = {"intact": (0.173, 0.627, 0.173), "suspicious": (1.0, 0.749, 0.0),
-            "damaged": (0.839, 0.153, 0.157), "unknown": (0.62, 0.62, 0.62)}
+            "damaged": (0.839, 0.153, 0.157), "unknown": (0.62, 0.62, 0.62),
+            "unreliable": (0.62, 0.62, 0.62)}
     assert markers.markers[0].action == 3  # DELETEALL first
     by_ns = {}
     for m in markers.markers[1:]:
@@ -140,12 +194,23 @@ def check_markers(markers: Any, result: Any) -> None:
         assert cyl.pose.position.z == pytest.approx(0.5 * (sec.z_bottom_m + sec.z_top_m))
         assert cyl.scale.z == pytest.approx(0.96 * (sec.z_top_m - sec.z_bottom_m))
         assert label.text.startswith(f"S{sec.index + 1} {sec.state}")
-        if sec.state != "unknown":
+        if sec.state in ("unknown", "unreliable"):
+            assert label.text.startswith(f"S{sec.index + 1} {sec.state}: no diagnosis")
+        else:
             df = f"{sec.ductility_factor:.2f}" if sec.yielded else f"<={sec.ductility_factor:.2f}"
             assert f"DF {df}" in label.text
             assert f"k1 {sec.k1_change_pct:+.1f} %" in label.text
     (title,) = by_ns["pier"]
     assert title.text.startswith(f"{result.pier_id} {result.overall_state.upper()}")
+
+
+def wait_until(predicate: Any, timeout_s: float, what: str) -> None:
+    """Poll ``predicate()`` every 0.1 s until true; fail the test after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
+        time.sleep(0.1)
 
 
 def params_file(path: Path, data: Path, **identifier: Any) -> Path:
@@ -204,11 +269,7 @@ class Listener:
         self.thread.start()
 
     def wait(self, predicate: Any, timeout_s: float, what: str) -> None:
-        deadline = time.monotonic() + timeout_s
-        while not predicate():
-            if time.monotonic() > deadline:
-                pytest.fail(f"timed out after {timeout_s} s waiting for {what}")
-            time.sleep(0.1)
+        wait_until(predicate, timeout_s, what)
 
     def ingest_values(self) -> dict[str, str]:
         for arr in reversed(self.status):

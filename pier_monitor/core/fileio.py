@@ -8,7 +8,10 @@ import threading
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path"]
+__all__ = ["atomic_path", "remove_temporaries"]
+
+#: Names of the temporary files :func:`atomic_path` writes (``.<name>.<pid>.<thread>.tmp``).
+_TEMPORARY_GLOB = ".*.*.*.tmp"
 
 
 @contextlib.contextmanager
@@ -31,3 +34,18 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             tmp.unlink(missing_ok=True)
         raise
+
+
+def remove_temporaries(directory: str | Path) -> list[Path]:
+    """Remove the temporary files of :func:`atomic_path` left in ``directory``; return them.
+
+    A process killed while writing (SIGKILL, out of memory, a broken process pool) leaves
+    its temporary file behind.  Call this only where no other writer can be at work in
+    ``directory`` (e.g. an event directory whose identification is starting anew).
+    """
+    removed = []
+    for tmp in Path(directory).glob(_TEMPORARY_GLOB):
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+            removed.append(tmp)
+    return removed

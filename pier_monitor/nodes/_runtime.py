@@ -54,11 +54,27 @@ class QueueWorker(Generic[T]):
         """Items queued and not handled yet."""
         return self._queue.qsize()
 
-    def stop(self, timeout_s: float = 30.0) -> bool:
-        """Handle what is queued, then end the thread; True if it ended within the time."""
+    def stop(self, log: Callable[[str], None], report_every_s: float = 10.0) -> None:
+        """Handle what is queued, then end the thread; return once it has ended.
+
+        There is no deadline: the node's publishers, logger and rclpy itself must outlive
+        every call the worker makes (a worker thread still running while the node is
+        destroyed, or at interpreter exit, can crash the process).  A handler that must stop
+        early checks a flag of its own (the identifier ends a training at its next epoch).
+
+        Parameters
+        ----------
+        log : callable
+            ``log(text)``, called every ``report_every_s`` seconds of waiting with the
+            number of items still queued.
+        report_every_s : float
+            Seconds between two such lines.
+        """
         self._queue.put(_STOP)
-        self._thread.join(timeout=timeout_s)
-        return not self._thread.is_alive()
+        self._thread.join(timeout=report_every_s)
+        while self._thread.is_alive():
+            log(f"{self._thread.name}: still handling, {self.backlog} items queued")
+            self._thread.join(timeout=report_every_s)
 
     def _run(self) -> None:
         while True:

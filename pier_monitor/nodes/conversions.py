@@ -21,6 +21,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from pier_monitor.bags.types import sample_block_arrays
 from pier_monitor.core.errors import InputDataError, PierMonitorError
+from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id
 from pier_monitor.core.ingest.recording import ns_to_stamp, stamp_to_ns
 from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
 from pier_monitor.core.model.config import (PierConfig, PierGeometry, SensorSpec,
@@ -189,11 +190,15 @@ def window_from_msg(msg: MainshockWindow, topic: str = "mainshock_window") -> Me
     Raises
     ------
     MessageError
-        Naming the topic, the event and the field when sizes or values are inconsistent.
+        Naming the topic, the event and the field when sizes or values are inconsistent, or
+        when ``pier_id`` or ``event_id`` is not a safe id (they become directory names:
+        :func:`~pier_monitor.core.ids.check_id`).
     """
     where = f"{topic}: MainshockWindow {msg.event_id!r}"
     n, m = int(msg.n_levels), int(msg.n_samples)
     try:
+        check_id("pier_id", msg.pier_id)
+        check_id("event_id", msg.event_id, max_len=EVENT_ID_MAX_LEN)
         report = json.loads(msg.report) if msg.report else {}
         if not isinstance(report, dict):
             raise MessageError(f"{where}: report is not a JSON object")

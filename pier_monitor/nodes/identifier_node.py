@@ -10,8 +10,9 @@ Topics (relative; run the node in the pier's namespace):
   Foxglove, a cylinder per section coloured by state, labelled with DF and the k1 change
   (:mod:`pier_monitor.report.markers`);
 * out ``/diagnostics`` (``DiagnosticArray``): one status per section, OK / WARN / ERROR for
-  intact / suspicious / damaged (STALE when the identification failed), and the
-  identifier's, republished every ``diagnostics_period_s``.
+  intact / suspicious / damaged (WARN with the reasons when the result is unreliable, STALE
+  when the identification failed), and the identifier's, republished every
+  ``diagnostics_period_s``.
 
 Each window goes through :func:`pier_monitor.events.identify_window`, the step
 ``pier-monitor identify`` runs for a bag: stored in ``results_dir/<event_id>/`` before
@@ -20,7 +21,9 @@ there.  At start the node queues every window not done yet, of ``results_dir`` a
 ``window_dir`` (where the ingest node writes them), so a crash or a kill mid-training loses
 no event.  Training runs on a worker thread, never on the executor; a failure (NaN loss, out
 of memory, no GPU) is published as a damage state with ``success = false`` and the node
-keeps running.
+keeps running.  A result that fails its self-check is published with every state
+``STATE_UNRELIABLE`` and the reasons.  A window message whose pier or event id is not a safe
+name (it would become a directory) is refused with a logged error naming the field.
 
 With ``ray_address`` set, each training runs as a Ray task on that cluster
 (:func:`pier_monitor.fleet.identify_event`, the task of ``pier-monitor fleet``), so that the
@@ -200,7 +203,9 @@ class IdentifierNode(Node):
             self.get_logger().info(f"{window.event_id}: training stopped at shutdown; the "
                                    "window stays stored for the next start")
             return
-        if result.success:
+        if result.unreliable_reasons:
+            self.get_logger().warning(f"{window.event_id}: {result.message}")
+        elif result.success:
             self.get_logger().info(f"{window.event_id}: {result.overall_state}, DF "
                                    f"{[round(s.ductility_factor, 2) for s in result.sections]}")
         else:
@@ -256,7 +261,7 @@ class IdentifierNode(Node):
     def destroy_node(self) -> None:
         """Stop the worker (ending a training at its next epoch), then the node."""
         self._closing = True  # a training stops at its next epoch; the window stays stored
-        self._worker.stop(timeout_s=30.0)
+        self._worker.stop(self.get_logger().info)
         if self._ray is not None:
             self._ray.close()
         super().destroy_node()

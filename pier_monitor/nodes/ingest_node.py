@@ -10,7 +10,11 @@ Topics (relative: run the node in the pier's namespace, e.g. ``/edefense_pier``)
 * out ``mainshock_window`` (``MainshockWindow``, reliable, transient local, depth 10): each
   window is written to ``window_dir/<event_id>.npz`` *before* it is published;
 * out ``ingest_status`` and ``/diagnostics`` (``DiagnosticArray``): samples received, blocks
-  dropped, channels alive, gaps, duplicates, exclusions.
+  dropped, channels alive, gaps, duplicates, exclusions, the number of ingest findings; WARN
+  naming the sensors with an exclusion.  An event the ingest can give no window of (a level
+  left without usable sensors, or the stream ending while the ground still shakes) adds a
+  status of its own, ``pier_monitor/<pier>/ingest/<event_id>``, at ERROR with the reason
+  (level, sensors, time, cause), and is logged as an error.
 
 Subscriptions are raw: callbacks only enqueue bytes; a worker thread decodes, checks each
 message against the sensor map (a malformed or mis-typed message is logged with its topic
@@ -35,7 +39,9 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import Imu
 from std_msgs.msg import String
 
+from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id, safe_child
 from pier_monitor.core.ingest import StreamIngest
+from pier_monitor.core.ingest.settings import EventIngest, fmt_time
 from pier_monitor.core.ingest.window import MeasuredWindow, save_window
 from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml, load_config
 
@@ -83,6 +89,8 @@ class IngestNode(Node):
         self._drops_by_topic: dict[str, int] = {}
         self._last_error = ""
         self._last_window = ""
+        self._failed: list[EventIngest] = []  # events without a window, in time order
+        self._outcomes_seen = 0
 
         self._window_pub = self.create_publisher(MainshockWindow, "mainshock_window", WINDOW_QOS)
         self._status_pub = self.create_publisher(DiagnosticArray, "ingest_status", 10)
@@ -165,10 +173,27 @@ class IngestNode(Node):
         self._last_seen[sid] = time.monotonic()
         for window in self._stream.push(sid, times, data, index):
             self._emit(window)
+        self._note_failed_events()
+
+    def _note_failed_events(self) -> None:
+        """Log the events handed on without a window since the last call, and keep them for
+        the status."""
+        outcomes = self._stream.report.outcomes
+        for outcome in outcomes[self._outcomes_seen:]:
+            if outcome.window is None:
+                self._failed.append(outcome)
+                self.get_logger().error(f"event {outcome.event_id}: {outcome.status}, no "
+                                        f"window: {outcome.failure}")
+        self._outcomes_seen = len(outcomes)
+
+    def _window_file(self, window: MeasuredWindow) -> Path:
+        """``window_dir/<event_id>.npz``, created; never outside ``window_dir``."""
+        self._window_dir.mkdir(parents=True, exist_ok=True)
+        event_id = check_id("event_id", window.event_id, max_len=EVENT_ID_MAX_LEN)
+        return safe_child(self._window_dir, f"{event_id}.npz")
 
     def _emit(self, window: MeasuredWindow) -> None:
-        self._window_dir.mkdir(parents=True, exist_ok=True)
-        path = save_window(window, self._window_dir / f"{window.event_id}.npz")
+        path = save_window(window, self._window_file(window))
         config = self._stream.config_at(window.start_time_ns)
         self._window_pub.publish(window_to_msg(window, config))
         self._last_window = window.event_id
@@ -189,7 +214,7 @@ class IngestNode(Node):
 
     # -- status -----------------------------------------------------------------------------
     def status(self) -> DiagnosticStatus:
-        """The node's status: counters, channels alive, exclusions."""
+        """The node's status: counters, channels alive, findings, exclusions, failed events."""
         now = time.monotonic()
         timeout = self.get_parameter("alive_timeout_s").value
         alive = sorted(s for s, t in self._last_seen.items() if now - t <= timeout)
@@ -197,16 +222,24 @@ class IngestNode(Node):
         stream = self._stream
         counts = stream.counts if stream is not None else None
         exclusions = stream.exclusions() if stream is not None else []
+        findings = list(stream.report.findings) if stream is not None else []
+        excluded = sorted({f.sensor_id for f in findings if f.action == "excluded"})
+        failed = list(self._failed)
         st = DiagnosticStatus()
-        st.name = f"pier_monitor/{self.get_namespace().strip('/') or 'pier'}/ingest"
+        st.name = self._status_name()
         st.hardware_id = self.get_namespace()
         gaps = counts.gap_samples if counts else 0
         if stream is None:
             st.level, st.message = DiagnosticStatus.WARN, "waiting for the pier configuration"
-        elif self._dropped or gaps or exclusions:
-            st.level, st.message = DiagnosticStatus.WARN, (
-                f"{self._dropped} messages dropped, {gaps} samples missing, "
-                f"{len(exclusions)} exclusions")
+        elif self._dropped or gaps or exclusions or failed:
+            parts = [f"{self._dropped} messages dropped, {gaps} samples missing, "
+                     f"{len(exclusions)} exclusions"]
+            if excluded:
+                parts.append(f"excluded: {', '.join(excluded)}")
+            if failed:
+                parts.append(f"{len(failed)} events without a window: "
+                             f"{', '.join(o.event_id for o in failed)}")
+            st.level, st.message = DiagnosticStatus.WARN, "; ".join(parts)[:500]
         else:
             st.level, st.message = DiagnosticStatus.OK, f"{len(alive)} channels alive"
         values = {
@@ -221,30 +254,53 @@ class IngestNode(Node):
             "channels_alive": len(alive),
             "silent_channels": ",".join(silent),
             "exclusions": "; ".join(exclusions),
+            "findings": len(findings),
+            "excluded_sensors": ",".join(excluded),
+            "events_failed": len(failed),
+            "failed_events": ",".join(o.event_id for o in failed),
             "last_window": self._last_window,
             "last_error": self._last_error,
         }
         st.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
         return st
 
+    def _status_name(self) -> str:
+        return f"pier_monitor/{self.get_namespace().strip('/') or 'pier'}/ingest"
+
+    def event_statuses(self) -> list[DiagnosticStatus]:
+        """One ERROR status per event without a window, with its reason."""
+        out = []
+        for outcome in list(self._failed):
+            st = DiagnosticStatus()
+            st.name = f"{self._status_name()}/{outcome.event_id}"
+            st.hardware_id = self.get_namespace()
+            st.level = DiagnosticStatus.ERROR
+            st.message = f"{outcome.status}, no window: {outcome.failure}"[:500]
+            values = {"event_id": outcome.event_id, "status": outcome.status,
+                      "start": fmt_time(outcome.start_ns), "end": fmt_time(outcome.end_ns),
+                      "findings": len(outcome.findings), "reason": outcome.failure}
+            st.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
+            out.append(st)
+        return out
+
     def _publish_status(self) -> None:
         arr = DiagnosticArray()
         arr.header.stamp = self.get_clock().now().to_msg()
-        arr.status = [self.status()]
+        arr.status = [self.status(), *self.event_statuses()]
         self._status_pub.publish(arr)
         self._diag_pub.publish(arr)
 
     # -- shutdown ---------------------------------------------------------------------------
     def destroy_node(self) -> None:
         """Drain the queue, write events that ended with the stream to disk, stop."""
-        self._worker.stop(timeout_s=30.0)
+        self._worker.stop(self.get_logger().info)
         if self._stream is not None:
             try:
                 for window in self._stream.flush():
-                    self._window_dir.mkdir(parents=True, exist_ok=True)
-                    save_window(window, self._window_dir / f"{window.event_id}.npz")
+                    save_window(window, self._window_file(window))
                     self.get_logger().info(f"window {window.event_id} at the end of the "
                                            "stream written to disk")
+                self._note_failed_events()
             except Exception as err:
                 self.get_logger().error(f"flush at shutdown: {type(err).__name__}: {err}")
         super().destroy_node()

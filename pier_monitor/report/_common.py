@@ -20,9 +20,9 @@ __all__ = ["STATE_COLORS", "check_same_pier", "engineering_scale", "ensure_dir",
 Z_TOL_M = 1e-6
 
 #: Colour of each section state in figures and markers: intact green, suspicious amber,
-#: damaged red, unknown (no diagnosis) grey.
+#: damaged red, no diagnosis (unknown, unreliable) grey.
 STATE_COLORS = {"intact": "#2ca02c", "suspicious": "#ffbf00", "damaged": "#d62728",
-                "unknown": "#9e9e9e"}
+                "unknown": "#9e9e9e", "unreliable": "#9e9e9e"}
 
 _PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"))
 

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from pier_monitor.core.identify.damage import DamageState, IdentificationResult, SectionResult
+from pier_monitor.core.identify.states import is_diagnosis
 from pier_monitor.core.errors import ReportError
 
 from ._common import (atomic_write_text, check_same_pier, engineering_scale, ensure_dir,
@@ -80,10 +81,10 @@ class SectionChange:
 
     @property
     def worsened(self) -> bool:
-        """The state got worse (both states known)."""
+        """The state got worse (both states diagnoses: not unknown, not unreliable)."""
         before = DamageState[self.state_before.upper()]
         after = DamageState[self.state_after.upper()]
-        return DamageState.UNKNOWN not in (before, after) and after > before
+        return is_diagnosis(before) and is_diagnosis(after) and after > before
 
     def summary(self) -> str:
         """One line of plain language.
@@ -120,6 +121,7 @@ class Comparison:
     overall_before: str
     overall_after: str
     sections: tuple[SectionChange, ...]
+    unreliable: tuple[str, ...] = ()
 
     def ranked_by_k1_change(self) -> tuple[SectionChange, ...]:
         """Sections from the largest ``k1`` loss to the largest gain."""
@@ -129,6 +131,8 @@ class Comparison:
         """One line over the whole pier: overall states and the largest ``k1`` loss."""
         line = (f"pier {self.pier_id}: {self.event_before} -> {self.event_after}: overall "
                 f"{self.overall_before} -> {self.overall_after}")
+        if self.unreliable:
+            line += " (no diagnosis: an unreliable identification)"
         worst = self.ranked_by_k1_change()[0]
         if worst.k1_change_pct < 0:
             line += (f"; largest k1 loss in section {worst.number} "
@@ -140,7 +144,7 @@ class Comparison:
 
     def summary_lines(self) -> list[str]:
         """The headline, then one line per section, bottom to top."""
-        lines = [self.headline()] + [s.summary() for s in self.sections]
+        lines = [self.headline(), *self.unreliable] + [s.summary() for s in self.sections]
         if any(s.df_before_bound or s.df_after_bound for s in self.sections):
             lines.append("<=: the spring did not yield; its DF is only an upper bound and its "
                          "k2, fy are not identifiable")
@@ -177,6 +181,7 @@ class Comparison:
         d = asdict(self)
         d["sections"] = [dict(asdict(s), reasons=list(s.reasons), summary=s.summary())
                          for s in self.sections]
+        d["unreliable"] = list(self.unreliable)
         d["summary"] = self.summary_lines()
         return d
 
@@ -191,6 +196,10 @@ class ComparisonPaths:
 
 def compare_results(a: IdentificationResult, b: IdentificationResult) -> Comparison:
     """Per-section change from result ``a`` (before) to result ``b`` (after).
+
+    An unreliable result (failed its self-check) is compared, but its states stay
+    ``unreliable`` and :attr:`Comparison.unreliable` says which result it is and why: no
+    change of state is concluded from it.
 
     Raises
     ------
@@ -207,16 +216,20 @@ def compare_results(a: IdentificationResult, b: IdentificationResult) -> Compari
     against_a = b.with_baseline(a)
     sections = tuple(_section_change(sa, sb, sr)
                      for sa, sb, sr in zip(a.sections, b.sections, against_a.sections))
+    unreliable = tuple(f"{name} ({r.event_id}) is unreliable, no diagnosis: "
+                       + "; ".join(r.unreliable_reasons)
+                       for name, r in (("A", a), ("B", b)) if r.unreliable_reasons)
     return Comparison(pier_id=a.pier_id, event_before=a.event_id, event_after=b.event_id,
                       overall_before=a.overall_state,
                       overall_after=_worse(b.overall_state, against_a.overall_state),
-                      sections=sections)
+                      sections=sections, unreliable=unreliable)
 
 
 def _worse(state: str, other: str) -> str:
-    """The worse of two known states (``state`` when either is unknown)."""
+    """The worse of two diagnoses; ``state`` when either is no diagnosis (unknown,
+    unreliable)."""
     s, o = DamageState[state.upper()], DamageState[other.upper()]
-    return state if DamageState.UNKNOWN in (s, o) or s >= o else other
+    return state if not (is_diagnosis(s) and is_diagnosis(o)) or s >= o else other
 
 
 def _section_change(sa: SectionResult, sb: SectionResult, against_a: SectionResult

@@ -2,7 +2,8 @@
 what the results mcap carries.
 
 One ``DiagnosticStatus`` per section (OK / WARN / ERROR for intact / suspicious / damaged,
-STALE when there is no diagnosis), then the identifier's (OK, or ERROR when the
+WARN for an unreliable result, with the reasons, STALE when there is no diagnosis), then the
+identifier's (OK; WARN with the reasons when the result is unreliable; ERROR when the
 identification failed).  :func:`diagnostics_fields` maps the fields of a damage state
 (:func:`~pier_monitor.report.results.damage_state_fields`) to those of a
 ``diagnostic_msgs/DiagnosticArray``, levels as integers.
@@ -24,7 +25,7 @@ DIAGNOSTICS_TOPIC = "/diagnostics"
 DIAGNOSTIC_ARRAY_TYPE = "diagnostic_msgs/msg/DiagnosticArray"
 #: ``DiagnosticStatus`` level (OK 0, WARN 1, ERROR 2, STALE 3) of each section state.
 DIAGNOSTIC_LEVELS = {DamageState.INTACT: 0, DamageState.SUSPICIOUS: 1, DamageState.DAMAGED: 2,
-                     DamageState.UNKNOWN: 3}
+                     DamageState.UNKNOWN: 3, DamageState.UNRELIABLE: 1}
 
 
 def _fmt(value: float | None) -> str:
@@ -42,6 +43,9 @@ def _has_uncertainty(section: dict[str, Any]) -> bool:
 def _section_message(fields: dict[str, Any], s: dict[str, Any], state: str) -> str:
     if not fields["success"]:
         return f"no diagnosis: {fields['message']}"[:500]
+    if state == "unreliable":
+        return (f"unreliable, no diagnosis: {'; '.join(s['reasons'])} (DF "
+                f"{_fmt(s['ductility_factor'])}, event {fields['event_id']})")[:500]
     if not _has_uncertainty(s):
         return (f"{state}: DF {_fmt(s['ductility_factor'])}, k1 change "
                 f"{_fmt(s['k1_change_pct'])} % (event {fields['event_id']})")
@@ -110,7 +114,8 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int) -> dict[str, Any]:
                        "name": f"pier_monitor/{pier}/section_{s['index'] + 1}",
                        "message": message, "hardware_id": pier,
                        "values": [{"key": k, "value": v} for k, v in values]})
-    status.append({"level": 0 if fields["success"] else 2,
+    unreliable = fields["overall_state"] == int(DamageState.UNRELIABLE)
+    status.append({"level": 2 if not fields["success"] else 1 if unreliable else 0,
                    "name": f"pier_monitor/{pier}/identifier", "hardware_id": pier,
                    "message": fields["message"][:500] or "ok",
                    "values": [{"key": "event_id", "value": fields["event_id"]},

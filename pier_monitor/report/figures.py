@@ -197,7 +197,8 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
     whose spring never yielded have an open marker: their DF is only an upper bound (≈ 1).
     With exactly two results, the ``k1`` change of the second against the first (%) is
     written beside its markers.  Sections identified by an ensemble have error bars from
-    the 5th to the 95th percentile of the members, on ``k1`` and on the DF.
+    the 5th to the 95th percentile of the members, on ``k1`` and on the DF.  An unreliable
+    result (failed its self-check) is drawn grey and dashed, "no diagnosis" in the legend.
 
     Parameters
     ----------
@@ -278,13 +279,16 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         zj = [zm - (j - 0.5 * (len(results) - 1)) * 0.2 * (zt - zb) for j in range(len(results))]
         for j, r in enumerate(results):
             color, marker = _EVENT_COLORS[j], _EVENT_MARKERS[j]
+            ls = "-"
+            if r.unreliable_reasons:  # grey and dashed: numbers, not a diagnosis
+                color, ls = STATE_COLORS["unreliable"], "--"
             yielded = np.array([s.yielded for s in r.sections])
             any_bound |= bool(np.any(~yielded))
             xs, zs = _steps(k_vals[j], zb, zt)
-            (line,) = ax_k.plot(xs, zs, color=color, lw=2.0, marker="none")
+            (line,) = ax_k.plot(xs, zs, color=color, lw=2.0, ls=ls, marker="none")
             ax_k.plot(k_vals[j], zj[j], ls="none", marker=marker, ms=7, color=color)
             xs, zs = _steps(df_all[j], zb, zt)
-            ax_df.plot(xs, zs, color=color, lw=2.0)
+            ax_df.plot(xs, zs, color=color, lw=2.0, ls=ls)
             ax_df.plot(df_all[j][yielded], zj[j][yielded], ls="none", marker=marker, ms=7,
                        color=color)
             ax_df.plot(df_all[j][~yielded], zj[j][~yielded], ls="none", marker=marker, ms=7,
@@ -294,15 +298,17 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
                               elinewidth=1.4, capsize=4)
                 ax_df.errorbar(df_all[j], zj[j], xerr=df_err[:, j], ls="none", color=color,
                                elinewidth=1.4, capsize=4)
-            event_handles.append((line, marker, color,
-                                  f"{labels[j]} (overall: {r.overall_state})"))
+            overall = ("unreliable, no diagnosis" if r.unreliable_reasons
+                       else r.overall_state)
+            event_handles.append((line, marker, color, f"{labels[j]} (overall: {overall})"))
+        line_colors = [c for _, _, c, _ in event_handles]
         if len(results) <= 2:  # DF values as numbers, right of the section's markers
             for j, r in enumerate(results):
                 for i, s in enumerate(r.sections):
                     ax_df.annotate(format_df(s.ductility_factor, s.yielded).replace("<=", "≤"),
                                    (float(np.nanmax(df_ext[:, i])), zj[j][i]), xytext=(8, 0),
                                    textcoords="offset points", fontsize=8.5,
-                                   color=_EVENT_COLORS[j], va="center",
+                                   color=line_colors[j], va="center",
                                    bbox=dict(boxstyle="square,pad=0.1", fc="white", ec="none",
                                              alpha=0.75))
         if len(results) == 2:
@@ -336,8 +342,8 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         ax_sec.grid(False)
         ax_sec.tick_params(axis="y", length=0)
 
-        handles = [Line2D([], [], color=c, lw=2.0, marker=m, ms=7, label=lab)
-                   for _, m, c, lab in event_handles]
+        handles = [Line2D([], [], color=c, lw=2.0, ls=line.get_linestyle(), marker=m, ms=7,
+                          label=lab) for line, m, c, lab in event_handles]
         handles += [Patch(color=_BAND_COLORS["intact"], alpha=0.35,
                           label=f"intact: DF < {SUSPICIOUS_DF:g}"),
                     Patch(color=_BAND_COLORS["suspicious"], alpha=0.45,

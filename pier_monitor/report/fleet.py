@@ -2,9 +2,9 @@
 
 :func:`summarize_store` takes every pier of a :class:`~pier_monitor.report.store.ResultsStore`
 and its latest event (a result, or a failure record), and ranks the piers by the worst state
-(damaged, suspicious, unknown — a pier whose identification failed cannot be cleared —
-then intact) and then by the largest ductility factor.  With a pier's previous successful
-event, the change of each section's ``k1`` against it is given.
+(damaged, suspicious, unreliable, unknown — a pier whose identification failed or failed its
+self-check cannot be cleared — then intact) and then by the largest ductility factor.  With
+a pier's previous reliable event, the change of each section's ``k1`` against it is given.
 
 :func:`write_fleet_summary` writes into a directory:
 
@@ -42,7 +42,7 @@ FLEET_JSON = "fleet.json"
 FLEET_PNG = "fleet.png"
 FLEET_STATE_MCAP = "fleet_state.mcap"
 #: Order of the piers in the summary: worst state first.
-STATE_RANK = {"damaged": 0, "suspicious": 1, "unknown": 2, "intact": 3}
+STATE_RANK = {"damaged": 0, "suspicious": 1, "unreliable": 2, "unknown": 3, "intact": 4}
 
 
 @dataclass(frozen=True)
@@ -56,7 +56,7 @@ class PierRow:
     events : int
         Events of the pier in the store (results and failures).
     previous : IdentificationResult or None
-        The pier's latest successful event before ``result``.
+        The pier's latest reliable event before ``result``.
     k1_change_pct : ndarray (N,) or None
         ``k1`` of each section against ``previous``, %; None without one.
     """
@@ -159,7 +159,7 @@ def summarize_store(store: ResultsStore) -> FleetSummary:
         events = sorted([r for r in (*results, *failures) if r.pier_id == pier],
                         key=lambda r: (r.window_start_ns, r.event_id))
         latest = events[-1]
-        earlier = [r for r in events[:-1] if r.success]
+        earlier = [r for r in events[:-1] if r.reliable]
         previous = earlier[-1] if earlier and latest.success else None
         change = None
         if previous is not None and len(previous.sections) == len(latest.sections):

@@ -9,10 +9,11 @@ the foundation, m):
 * namespace ``sections``: a ``CYLINDER`` per section, from its bottom to its top (a small
   gap between sections), diameter a quarter of the pier's height (a display choice; the
   model has no diameter), coloured by state (:data:`~pier_monitor.report._common.
-  STATE_COLORS`: intact green, suspicious amber, damaged red, unknown grey);
+  STATE_COLORS`: intact green, suspicious amber, damaged red, unknown and unreliable grey);
 * namespace ``labels``: a ``TEXT_VIEW_FACING`` beside each section, ``S<n> <state> DF <DF>
   k1 <change> %`` (``DF <=1.00`` for a section that never yielded; ``k1 n/a`` without a
-  baseline), in the section's colour;
+  baseline; ``S<n> unreliable: no diagnosis (DF <DF>)`` for a result that failed its
+  self-check), in the section's colour;
 * namespace ``pier``: a title above the top, ``<pier> <OVERALL STATE> <event>``.
 
 Markers of section ``n`` have id ``n`` (0-based) in their namespace.  The identifier node
@@ -67,6 +68,8 @@ def section_label(section: dict[str, Any]) -> str:
     head = f"S{section['index'] + 1} {state.name.lower()}"
     if state == DamageState.UNKNOWN:
         return f"{head}: no diagnosis"
+    if state == DamageState.UNRELIABLE:
+        return f"{head}: no diagnosis (DF {section['ductility_factor']:.2f})"
     change = section["k1_change_pct"]
     k1 = "k1 n/a" if change is None or not math.isfinite(change) else f"k1 {change:+.1f} %"
     return f"{head} DF {format_df(section['ductility_factor'], section['k2_identifiable'])} {k1}"

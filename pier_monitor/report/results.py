@@ -34,6 +34,7 @@ from pier_monitor.bags.types import get_typestore, message_from_fields
 from pier_monitor.bags.writer import write_mcap_messages
 from pier_monitor.core.errors import BagError, InputDataError, ReportError
 from pier_monitor.core.fileio import atomic_path
+from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id
 from pier_monitor.core.identify.damage import DamageState, IdentificationResult, SectionResult
 from pier_monitor.core.identify.uncertainty import MemberResponses, Spread
 from pier_monitor.core.ingest.recording import NS_PER_S, ns_to_stamp, stamp_to_ns
@@ -271,10 +272,14 @@ def write_damage_states_mcap(results: Sequence[IdentificationResult], path: str 
 
 def prepare_result(run: RunLike, window: MeasuredWindow, *,
                    baseline: IdentificationResult | np.ndarray | None = None,
-                   version: str = __version__) -> IdentificationResult:
-    """The run's result as it is saved: window start, ``k1`` baseline and version filled in.
+                   version: str = __version__,
+                   check_reasons: Sequence[str] = ()) -> IdentificationResult:
+    """The run's result as it is saved: window start, ``k1`` baseline, version, the window's
+    findings and the self-check filled in.
 
-    ``k1_change_pct`` is recomputed against ``baseline``: the window's design values when
+    ``check_reasons`` (from :func:`~pier_monitor.core.identify.checks.check_identification`)
+    make the result unreliable (:meth:`IdentificationResult.with_check_reasons`), whatever
+    the baseline.  ``k1_change_pct`` is recomputed against ``baseline``: the window's design values when
     ``None``, an earlier result of the same pier (its ``k1`` and, for an ensemble, its ``k1``
     spread: a loss beyond the scatter is cracking, see
     :meth:`IdentificationResult.with_baseline`), or an array (N,) in N·m/rad.  The sections'
@@ -286,7 +291,11 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
         If the run is not of this window, or the baseline is of another pier or shape.
     """
     check_window_matches(window, run)
-    result = run.result
+    try:
+        findings = window.findings
+    except InputDataError as err:
+        raise ReportError(str(err)) from err
+    result = replace(run.result, findings=findings).with_check_reasons(check_reasons)
     if baseline is None:
         result = result.with_k1_baseline(window.design.k1, "design values")
     elif isinstance(baseline, IdentificationResult):
@@ -306,7 +315,8 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
 def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
                   baseline: IdentificationResult | np.ndarray | None = None,
                   figures: bool = True, version: str = __version__,
-                  members: MemberResponses | None = None) -> WrittenResult:
+                  members: MemberResponses | None = None,
+                  check_reasons: Sequence[str] = ()) -> WrittenResult:
     """Write damage_state.mcap, the four figures and result.json of one identification.
 
     Existing files of an earlier report in ``out_dir`` are replaced; ``result.json`` is
@@ -332,6 +342,9 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
     members : MemberResponses, optional
         The histories of an ensemble's members, (M, T, N): the hysteresis and responses
         figures draw their band.
+    check_reasons : sequence of str
+        Reasons the identification failed its self-check: the result is written as
+        unreliable (see :func:`prepare_result`).
 
     Returns
     -------
@@ -343,10 +356,16 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
     ReportError
         If ``out_dir`` cannot be created or written (the message names it), or the run,
         window and baseline do not belong together.
+    UnsafeNameError
+        If the window's pier or event id is not a safe name (it becomes a topic and a
+        directory name).
     """
+    check_id("pier_id", window.pier_id)
+    check_id("event_id", window.event_id, max_len=EVENT_ID_MAX_LEN)
     check_members_match(members, run.reproduced)
     out = ensure_dir(out_dir)
-    result = prepare_result(run, window, baseline=baseline, version=version)
+    result = prepare_result(run, window, baseline=baseline, version=version,
+                            check_reasons=check_reasons)
     paths = ResultsPaths(out_dir=out, result_json=out / RESULT_JSON,
                          damage_state_mcap=out / DAMAGE_STATE_MCAP,
                          figures=tuple(out / name for name in FIGURE_FILES) if figures else ())

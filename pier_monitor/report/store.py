@@ -7,14 +7,18 @@ Layout: one directory per event, ``<root>/<event_id>/``, holding
 * ``result.json``, ``damage_state.mcap`` and the figures of a successful identification
   (:func:`~pier_monitor.report.results.write_results`; ``result.json`` last);
 * ``failed.json`` — a failed identification
-  (:func:`~pier_monitor.core.identify.damage.failed_result`: its message says why).
+  (:func:`~pier_monitor.core.identify.damage.failed_result`: its message says why), or an
+  event the ingest could give no window of, failed or cut by the end of the data
+  (:func:`~pier_monitor.core.identify.damage.failed_event_result`; no ``window.npz``).
 
-An event is *done* when it has ``result.json`` or ``failed.json``.
+An event is *done* when it has ``result.json`` or ``failed.json``.  Event ids are checked
+(:func:`~pier_monitor.core.ids.check_id`) and every event directory stays under the root.
 
 The baseline rule (the reference of ``k1_change_pct``), the same for a bag identified
-offline and for the live identifier: the **earliest successful result of the same pier whose
-window started before this one**.  For the first event of a pier there is none, and changes
-are relative to the design values.  Identifying a bag into an empty directory therefore
+offline and for the live identifier: the **earliest reliable result of the same pier whose
+window started before this one** (a successful identification that passed its self-check;
+an unreliable result is never a baseline).  For the first event of a pier there is none, and
+changes are relative to the design values.  Identifying a bag into an empty directory therefore
 compares every later event with the bag's first one; a store that already holds an earlier
 event of the pier makes that one the baseline.
 """
@@ -26,7 +30,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pier_monitor.core.errors import InputDataError, ReportError
+from pier_monitor.core.fileio import remove_temporaries
 from pier_monitor.core.identify.damage import IdentificationResult
+from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id, safe_child
 from pier_monitor.core.ingest.window import MeasuredWindow, load_window, save_window
 
 from ._common import ensure_dir
@@ -81,13 +87,13 @@ class ResultsStore:
 
         Raises
         ------
-        ReportError
-            If ``event_id`` is not a plain file name (empty, ``.``/``..``, or with a path
-            separator).
+        UnsafeNameError
+            If ``event_id`` is not a safe id (:func:`~pier_monitor.core.ids.check_id`: empty,
+            too long, a separator, ``..``, ...) or the directory would lie outside the root
+            (a symbolic link pointing out of it).
         """
-        if not event_id or event_id in (".", "..") or "/" in event_id or "\\" in event_id:
-            raise ReportError(f"event id {event_id!r}: not usable as a directory name in "
-                              f"{self.root}")
+        check_id("event_id", event_id, max_len=EVENT_ID_MAX_LEN)
+        safe_child(self.root, event_id)
         return self.root / event_id
 
     def window_file(self, event_id: str) -> Path:
@@ -99,7 +105,8 @@ class ResultsStore:
         """Store the window of an identification about to start; returns its file.
 
         An earlier outcome of the same event (``result.json``, ``failed.json``) is removed:
-        until the new identification ends, the event is pending.
+        until the new identification ends, the event is pending.  So are temporary files a
+        killed writer of the event left (:func:`~pier_monitor.core.fileio.remove_temporaries`).
 
         Raises
         ------
@@ -110,12 +117,17 @@ class ResultsStore:
         try:
             for name in (RESULT_JSON, FAILED_JSON):
                 (out / name).unlink(missing_ok=True)
+            for tmp in remove_temporaries(out):
+                log.warning("%s: removed, left by a writer that did not finish", tmp)
             return save_window(window, out / WINDOW_NPZ)
         except OSError as err:
             raise ReportError(f"{out}: cannot store the window: {err.strerror or err}") from err
 
     def record_failure(self, result: IdentificationResult) -> Path:
         """Write a failed result (``success`` false) as the event's ``failed.json``.
+
+        A ``result.json`` of an earlier run of the event is removed: the failure is its
+        outcome now.
 
         Raises
         ------
@@ -127,6 +139,7 @@ class ResultsStore:
                               "result (success false)")
         path = ensure_dir(self.event_dir(result.event_id)) / FAILED_JSON
         try:
+            (path.parent / RESULT_JSON).unlink(missing_ok=True)
             return result.save_json(path)
         except OSError as err:
             raise ReportError(f"{path}: cannot write: {err.strerror or err}") from err
@@ -169,11 +182,12 @@ class ResultsStore:
     def baseline_for(self, window: MeasuredWindow) -> IdentificationResult | None:
         """The baseline of ``window``'s identification (see the module documentation).
 
-        The earliest successful result of the same pier whose window started before
-        ``window.start_time_ns``; None when there is none (compare with the design values).
+        The earliest reliable result (a successful identification that passed its
+        self-check) of the same pier whose window started before ``window.start_time_ns``;
+        None when there is none (compare with the design values).
         """
         earlier = [r for r in self.results(window.pier_id)
-                   if r.success and r.window_start_ns < window.start_time_ns]
+                   if r.reliable and r.window_start_ns < window.start_time_ns]
         return earlier[0] if earlier else None
 
     def pending(self, inbox: str | Path | None = None) -> PendingWindows:

@@ -18,8 +18,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from ros_helpers import (NS, REPO_ROOT, RUN_SCRIPT, Listener, RosProcess, interrupt,
-                         params_file)
+from ros_helpers import (NS, REPO_ROOT, RUN_SCRIPT, Listener, interrupt, kill_children,
+                         params_file, start_child)
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(400)]
 
@@ -64,11 +64,6 @@ def sourced_env(install: Path, base: dict[str, str]) -> dict[str, str]:
     return dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
 
 
-def start(cmd: list[str], env: dict[str, str], cwd: Path) -> RosProcess:
-    return RosProcess(subprocess.Popen(cmd, env=env, cwd=cwd, text=True, stdin=subprocess.PIPE,
-                                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT))
-
-
 @pytest.fixture
 def short_bag(tmp_path: Path) -> tuple[Path, list[str]]:
     """A two-run bag (0.5 s blocks) and the events the ingest finds in it."""
@@ -104,14 +99,21 @@ def test_colcon_built_executables_diagnose_a_replayed_bag(
     bag, events = short_bag
     params = params_file(tmp_path / "params.yaml", tmp_path)
     listener = Listener(rclpy_context, msg_typestore)
-    nodes = [start([str(lib / name), "--ros-args", "-r", f"__ns:={NS}", "--params-file",
-                    str(params)], env, tmp_path) for name in ("ingest", "identifier")]
+    nodes = [start_child([str(lib / name), "--ros-args", "-r", f"__ns:={NS}", "--params-file",
+                          str(params)], env, tmp_path) for name in ("ingest", "identifier")]
     try:
         for node in nodes:
             node.wait_for_line("READY", 60)
-        replay = start([str(VENV / "bin" / "python"), "-c", RUN_SCRIPT,
-                        str(REPO_ROOT / "launch_free_scripts" / "replay_bag.py"), str(bag),
-                        "--rate", "8"], env, tmp_path)
+            # the workspace's message libraries only: the venv holds another build of them,
+            # which a library path in another order would mix in
+            libs = {line.split()[-1] for line in
+                    Path(f"/proc/{node.popen.pid}/maps").read_text().splitlines()
+                    if "pier_monitor_msgs" in line}
+            assert libs and all(lib.startswith(str(install)) for lib in libs), libs
+        replay = start_child([str(VENV / "bin" / "python"), "-c", RUN_SCRIPT,
+                              str(REPO_ROOT / "launch_free_scripts" / "replay_bag.py"), str(bag),
+                              "--rate", "8"], env, tmp_path)
+        nodes.append(replay)  # killed with the nodes if anything below fails
         replay.wait_for_line("SENT", 120)
         assert replay.stop() == 0
         listener.wait(lambda: len(listener.states) >= len(events), 120,
@@ -121,10 +123,7 @@ def test_colcon_built_executables_diagnose_a_replayed_bag(
             assert state.success and len(state.sections) == 4
             assert all(0.0 < s.ductility_factor < 20.0 for s in state.sections)
         assert (tmp_path / "results" / events[-1] / "result.json").is_file()
-        assert [interrupt(node) for node in nodes] == [0, 0]
+        assert [interrupt(node) for node in nodes[:2]] == [0, 0]
     finally:
         listener.close()
-        for node in nodes:
-            if node.popen.poll() is None:
-                node.popen.kill()
-                node.popen.wait()
+        kill_children(nodes)

@@ -142,8 +142,12 @@ def test_message_classes_import_and_sample_block_roundtrips_through_rclpy(fields
 
     assert (SampleBlock.KIND_ACCELERATION, SampleBlock.KIND_DISPLACEMENT,
             SampleBlock.KIND_VELOCITY) == (0, 1, 2)
-    assert (SectionState.STATE_INTACT, SectionState.STATE_SUSPICIOUS,
-            SectionState.STATE_DAMAGED, SectionState.STATE_UNKNOWN) == (0, 1, 2, 3)
+    from pier_monitor.core.identify.states import DamageState
+
+    assert {s.name: int(s) for s in DamageState} == {
+        name: getattr(SectionState, f"STATE_{name}") for name in
+        ("INTACT", "SUSPICIOUS", "DAMAGED", "UNKNOWN", "UNRELIABLE")} == {
+        "INTACT": 0, "SUSPICIOUS": 1, "DAMAGED": 2, "UNKNOWN": 3, "UNRELIABLE": 4}
     assert DiagnosticStatus.WARN == b"\x01" and Imu().linear_acceleration.x == 0.0
     assert DiagnosticArray().status == []
 

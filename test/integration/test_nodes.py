@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 import pytest
-
+from fault_injection import drop, short_recording
 from ros_helpers import (NS, REPO_ROOT, RUN_SCRIPT, TINY, Listener, check_markers, interrupt,
-                         params_file, start_node)
+                         params_file, start_node, wait_until)
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(170)]
 
@@ -486,3 +486,131 @@ def test_field_network_bag_live_equals_offline(listener, spawn_python, tmp_path)
         for key in ("k1", "c", "ductility_factor"):
             assert getattr(got, key) == pytest.approx(exp[key], rel=1e-6), key
     assert interrupt(graph) == 0
+
+
+@pytest.mark.timeout(120)
+def test_window_messages_with_unsafe_ids_are_refused_and_the_next_window_is_identified(
+        offline, listener, spawn_python, tmp_path):
+    from pier_monitor_msgs.msg import MainshockWindow
+    from rclpy.duration import Duration
+
+    from pier_monitor.nodes.conversions import window_to_msg
+    from pier_monitor.nodes.qos import WINDOW_QOS
+
+    root = tmp_path / "a" / "b"
+    ident = start_node(spawn_python, "identifier_node",
+                       params_file(tmp_path / "p.yaml", root))
+    pub = listener.node.create_publisher(MainshockWindow, f"{NS}/mainshock_window", WINDOW_QOS)
+    listener.wait(lambda: pub.get_subscription_count() > 0, 15, "the identifier's subscription")
+    good = offline.events[0].window
+    bad = [("pier_id", "../../x", "bad_pier_1", r"'../../x' holds './'"),
+           ("pier_id", "/abs/y", "bad_pier_2", r"'/abs/y' holds '/'"),
+           ("event_id", "../../x", "../../x", r"'../../x' holds './'"),
+           ("event_id", "a/b", "a/b", r"'a/b' holds '/'"),
+           ("event_id", "", "", "empty; expected 1 to 96 characters")]
+    for field, value, event_id, _ in bad:
+        msg = window_to_msg(good)
+        msg.event_id = event_id
+        setattr(msg, field, value)
+        pub.publish(msg)
+    pub.publish(window_to_msg(good))  # a good window after them is still identified
+    assert pub.wait_for_all_acked(Duration(seconds=10))
+    listener.wait(lambda: len(listener.states) >= 1, 60, "the good window's damage state")
+    assert [s.event_id for s in listener.states] == [good.event_id]
+    for field, _, _, shown in bad:
+        line = ident.wait_for_line(f"{field}: {shown}", 10, anywhere=True)
+        assert "dropped: MessageError" in line, line
+    assert ident.popen.poll() is None
+    assert interrupt(ident) == 0
+    written = {p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file()}
+    assert written and all(p.parts[:3] == ("a", "b", "results") or p.name == "p.yaml"
+                           for p in written), written
+    listener.node.destroy_publisher(pub)
+
+
+@pytest.mark.timeout(120)
+def test_ingest_node_reports_findings_excluded_sensors_and_a_failed_event(
+        listener, spawn_python, tmp_path):
+    from pier_monitor.bags import write_bag
+
+    synthetic, timeline = short_recording(seed=1)
+    bag = tmp_path / "gap.mcap"  # a 2 s gap in one wire during run 2
+    write_bag(drop("l2_wire_n", 2, 0.5, 2.0)(synthetic.recording, timeline), bag, block_s=0.5)
+    ingest = start_node(spawn_python, "ingest_node", params_file(tmp_path / "p.yaml", tmp_path))
+    player = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/replay_bag.py"),
+                          str(bag), "--rate", "8")
+    player.wait_for_line("SENT", 90)
+    assert player.stop() == 0
+
+    def failed_status() -> Any:
+        for arr in reversed(listener.diagnostics):
+            for st in arr.status:
+                if st.name.startswith(f"pier_monitor{NS}/ingest/"):
+                    return st
+        return None
+
+    listener.wait(lambda: failed_status() is not None
+                  and listener.ingest_values().get("windows_emitted") == "1", 60,
+                  "the failed event on /diagnostics and run 1's window")
+    st = failed_status()
+    values = {kv.key: kv.value for kv in st.values}
+    assert st.level == b"\x02" and values["status"] == "failed"  # ERROR
+    assert "level 2" in st.message and "l2_wire_n: gap_excluded" in st.message
+    status = listener.ingest_values()
+    assert status["events_failed"] == "1" and status["failed_events"] == values["event_id"]
+    assert "l2_wire_n" in status["excluded_sensors"].split(",")
+    assert int(status["findings"]) >= 1
+    main = next(s for a in reversed(listener.status) for s in a.status
+                if s.name.endswith("/ingest"))
+    assert main.level == b"\x01" and "excluded: " in main.message and "l2_wire_n" in main.message
+    assert len(list((tmp_path / "windows").glob("*.npz"))) == 1  # run 1 is not lost
+    assert interrupt(ingest) == 0
+    assert f"event {values['event_id']}: failed, no window: level 2" in "\n".join(
+        ingest.read_rest())
+
+
+def _alive(pid: int) -> bool:
+    """The process exists and is not a zombie."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except FileNotFoundError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def _children_of(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (FileNotFoundError, ProcessLookupError):
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+@pytest.mark.timeout(90)
+def test_no_node_outlives_a_killed_launcher_or_test_process(spawn_python, tmp_path):
+    # the graph launcher killed: its nodes get SIGTERM and shut down
+    graph = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/start_graph.py"),
+                         "--namespace", NS, "--params-file",
+                         str(params_file(tmp_path / "p.yaml", tmp_path)))
+    graph.wait_for_line("READY", 30)
+    graph.wait_for_line("READY", 30)
+    nodes = _children_of(graph.popen.pid)
+    assert len(nodes) == 2 and all(_alive(p) for p in nodes)
+    graph.popen.kill()
+    graph.popen.wait(timeout=10)
+    wait_until(lambda: not any(_alive(p) for p in nodes), 45, "the nodes to exit")
+    # a test process that dies (here: SIGKILL) takes the children of start_child with it
+    code = ("import os, sys, time; sys.path.insert(0, 'test'); "
+            "from ros_helpers import start_child; "
+            "c = start_child(['sleep', '600'], dict(os.environ), '.'); "
+            "print('CHILD', c.popen.pid, flush=True); time.sleep(600)")
+    parent = spawn_python(code)
+    child = int(parent.wait_for_line("CHILD", 20).split()[1])
+    assert _alive(child)
+    parent.popen.kill()
+    parent.popen.wait(timeout=10)
+    wait_until(lambda: not _alive(child), 10, "the child of the killed process to die")

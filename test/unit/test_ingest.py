@@ -163,6 +163,44 @@ def test_stream_carries_on_with_a_level_whose_wires_failed(synthetic, ingested):
     assert "unmeasured_level" in [f.code for f in stream.report.findings]
 
 
+def test_stream_waits_for_a_lagging_sensor_but_not_for_a_silent_one(synthetic, ingested):
+    rec = synthetic.recording
+    lag = 2000  # samples: l2_wire_n arrives 10 s behind the others (a slow link)
+    n = next(iter(rec.sensors.values())).n_samples
+
+    def feed(stream, stop_at=None):
+        got = []
+        for b0 in range(0, n + lag, 100):
+            for sid, r in rec.sensors.items():
+                lo = max(b0 - lag, 0) if sid == "l2_wire_n" else b0
+                hi = b0 + 100 - (lag if sid == "l2_wire_n" else 0)
+                if sid == "l2_wire_n" and stop_at is not None:
+                    hi = min(hi, stop_at)
+                if hi > lo:
+                    got += stream.push(sid, r.time_ns[lo:hi], r.data[lo:hi],
+                                       r.sample_index[lo:hi])
+        handed_on = len(stream.report.outcomes)
+        return got + stream.flush(), handed_on
+
+    stream = StreamIngest(rec.config)
+    for t_ns, config in rec.config_updates:
+        stream.update_config(config, t_ns)
+    whole, _ = ingested
+    assert feed(stream) == (whole, 2)  # every field: the lagging wire was waited for
+    # the wire falls silent in run 2: the event goes on without waiting for ever; its level
+    # keeps one wire, which cannot give both directions: displacement unmeasured there
+    silent = StreamIngest(rec.config, max_lag_s=20.0)
+    for t_ns, config in rec.config_updates:
+        silent.update_config(config, t_ns)
+    stop = int(np.searchsorted(rec.sensors["l2_wire_n"].time_ns,
+                               synthetic.truth.runs[1].window_start_ns + 5 * 10**9))
+    got, handed_on = feed(silent, stop_at=stop)
+    assert got[0] == whole[0] and handed_on == 2  # before the end of the stream
+    assert [o.status for o in silent.report.outcomes] == ["ingested", "ingested"]
+    assert got[1].coverage.displacement.tolist() == [True, False, True, True]
+    assert "unmeasured_level" in [f.code for f in silent.report.findings]
+
+
 def test_stream_accounts_for_gaps_duplicates_and_samples_without_index(synthetic):
     rec = synthetic.recording
     stream = StreamIngest(rec.config)

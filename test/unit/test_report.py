@@ -231,6 +231,80 @@ def test_cli_compare_prints_summary_and_writes_files(tmp_path: Path, capsys) -> 
         round(PROFILE_FIGSIZE_IN[0] * FIGURE_DPI), round(PROFILE_FIGSIZE_IN[1] * FIGURE_DPI))
 
 
+REASONS = ("section 2: c = 1.2e-09 N·m·s/rad is near zero (1e-16 of the reference 1.2e+07)",
+           "level 3: the reproduced displacement departs from the measured by 80% RMS "
+           "(allowed 26%)")
+
+
+def test_an_unreliable_result_is_no_diagnosis_in_any_output(identified, tmp_path,
+                                                            msg_typestore) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    window, run = identified
+    written = write_results(run, window, tmp_path / "event", check_reasons=REASONS)
+    result = written.result
+    assert result.overall_state == "unreliable" and result.success and not result.reliable
+    assert result.unreliable_reasons == REASONS
+    assert result.message.startswith(f"unreliable: {REASONS[0]}; {REASONS[1]}")
+    assert {s.state for s in result.sections} == {"unreliable"}
+    assert result.sections[1].reasons == REASONS  # its own, and the one naming no section
+    assert result.sections[0].reasons == REASONS[1:]
+    assert load_result(tmp_path / "event") == result
+    # a later baseline keeps it unreliable
+    assert result.with_baseline(written.result).overall_state == "unreliable"
+    with written.paths.damage_state_mcap.open("rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        msgs = {ch.topic: decoded for _, ch, _, decoded in reader.iter_decoded_messages()}
+    state = msgs[damage_state_topic("table1")]
+    assert state.overall_state == 4 and state.success
+    assert [s.state for s in state.sections] == [4] * 6
+    assert list(state.sections[1].reasons) == list(REASONS)
+    check_markers(msgs["/table1/damage_markers"], result)
+    statuses = msgs["/diagnostics"].status
+    assert [st.level for st in statuses] == [1] * 7  # every section and the identifier: WARN
+    assert statuses[1].message.startswith(f"unreliable, no diagnosis: {REASONS[0]}")
+    assert statuses[-1].message.startswith("unreliable: section 2: c = ")
+    assert _png_size(written.paths.profile_png)[0] > 0
+
+
+def test_compare_with_an_unreliable_result_concludes_no_change_of_state() -> None:
+    a = _result("p1", "run1", [1.0e9, 0.8e9], [4.4, 1.1])
+    b = _result("p1", "run2", [1e-10, 0.8e9], [0.5, 0.9]).with_check_reasons(
+        ["section 1: k1 = 1e-10 N·m/rad is near zero (1e-19 of the design 1e+09)"])
+    cmp = compare_results(a, b)
+    assert cmp.overall_after == "unreliable"
+    assert [s.state_after for s in cmp.sections] == ["unreliable", "unreliable"]
+    assert not any(s.worsened for s in cmp.sections)
+    lines = cmp.summary_lines()
+    assert lines[0].startswith("pier p1: run1 -> run2: overall damaged -> unreliable (no "
+                               "diagnosis: an unreliable identification)")
+    assert lines[1].startswith("B (run2) is unreliable, no diagnosis: section 1: k1 = 1e-10")
+    assert "damaged -> intact" not in "\n".join(lines)
+    assert cmp.to_dict()["unreliable"] == [lines[1]]
+
+
+def test_the_identify_summary_names_sensor_action_and_time() -> None:
+    from pier_monitor.cli import ingest_summary
+    from pier_monitor.core.ingest.settings import Finding
+
+    t = START_NS
+    findings = [Finding("glitch", "l3_wire_n", "one sample", t, t, "repaired"),
+                Finding("glitch", "l3_wire_n", "one sample", t + 10**9, t + 10**9, "repaired"),
+                Finding("principal_direction", "ev", "estimated", t, t + 10**9, "noted"),
+                Finding("gap_excluded", "l2_wire_n", "400 missing", t, t + 2 * 10**9,
+                        "excluded")] + [
+        Finding("frozen", f"l1_acc_{i}.x", "flat", t, t, "excluded") for i in range(6)]
+    lines = ingest_summary(findings)
+    assert lines[0] == "ingest: 10 findings (all in result.json / failed.json)"
+    assert lines[1] == ("  repaired  l3_wire_n: glitch (x2, first 2023-11-14T22:13:20.250Z for "
+                        "0.00 s)")
+    assert lines[2] == ("  excluded  l2_wire_n: gap_excluded (2023-11-14T22:13:20.250Z for "
+                        "2.00 s)")
+    assert lines[-1] == "  ... and 2 more" and len(lines) == 8
+    assert ingest_summary(findings[2:3]) == []  # only noted: nothing to say
+
+
 def test_cli_compare_names_a_missing_result(tmp_path: Path, capsys) -> None:
     from pier_monitor.cli import main
 

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pier_monitor.core.errors import ReportError
+from pier_monitor.core.errors import ReportError, UnsafeNameError
 from pier_monitor.core.identify.damage import (IdentificationResult, SectionResult,
                                                failed_result)
 from pier_monitor.core.ingest.window import MeasuredWindow, load_window, save_window
@@ -99,12 +99,15 @@ def test_pending_windows_come_from_event_directories_and_the_inbox_oldest_first(
     assert ResultsStore(tmp_path / "nothing").pending().windows == ()
 
 
-def test_a_new_start_removes_the_earlier_outcome_and_failures_are_recorded(
+def test_a_new_start_removes_the_earlier_outcome_and_leftovers_and_failures_are_recorded(
         base_window, tmp_path):
     w = window(base_window, "ev", 10.0)
     store = store_with(tmp_path, result(w, 1e9))
     assert store.is_done("ev")
+    left = store.event_dir("ev") / ".damage_state.mcap.4242.139.tmp"  # a killed writer's
+    left.write_bytes(b"half")
     store.start_event(w)
+    assert not left.exists()
     assert not store.is_done("ev") and [x.event_id for x in store.pending().windows] == ["ev"]
     failed = failed_result(w, device="cuda", message="identification failed: no GPU")
     path = store.record_failure(failed)
@@ -116,11 +119,29 @@ def test_a_new_start_removes_the_earlier_outcome_and_failures_are_recorded(
     np.testing.assert_allclose([s.z_top_m for s in back.sections],
                                w.geometry.level_heights_m[1:])
     assert store.baseline_for(window(base_window, "later", 20.0)) is None  # a failure is no baseline
+    unreliable = result(w, 1e9).with_check_reasons(["section 2: c = 1e-16 N·m·s/rad is near zero"])
+    unreliable.save_json(store.event_dir("ev") / "result.json")
+    assert store.baseline_for(window(base_window, "later", 20.0)) is None  # nor an unreliable one
     with pytest.raises(ReportError, match="takes a failed result"):
         store.record_failure(result(w, 1e9))
 
 
-@pytest.mark.parametrize("bad", ["", "..", "a/b"])
-def test_event_ids_that_are_not_directory_names_are_refused(tmp_path, bad):
-    with pytest.raises(ReportError, match="not usable as a directory name"):
-        ResultsStore(tmp_path).event_dir(bad)
+@pytest.mark.parametrize("bad, match", [("", "event_id: empty"), ("..", r"holds '\.'"),
+                                        ("a/b", "holds '/'"), ("../../x", r"holds '\./'"),
+                                        ("/abs/y", "holds '/'"), ("a\\b", r"holds '\\\\'")])
+def test_event_ids_that_are_not_directory_names_are_refused(base_window, tmp_path, bad, match):
+    store = ResultsStore(tmp_path / "results")
+    with pytest.raises(UnsafeNameError, match=match):
+        store.event_dir(bad)
+    w = failed_result(window(base_window, bad, 1.0), device="cpu", message="x")
+    with pytest.raises(UnsafeNameError, match=match):
+        store.record_failure(w)
+    assert not any(tmp_path.rglob("failed.json"))
+
+
+def test_an_event_directory_linked_out_of_the_root_is_refused(tmp_path):
+    root = tmp_path / "results"
+    root.mkdir()
+    (root / "run1").symlink_to(tmp_path / "elsewhere", target_is_directory=True)
+    with pytest.raises(UnsafeNameError, match="outside"):
+        ResultsStore(root).event_dir("run1")

@@ -39,7 +39,9 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.fileio import atomic_path
 from pier_monitor.core.ingest.window import MeasuredWindow
 
-from .states import DAMAGED_DF, SUSPICIOUS_DF, DamageState, classify_ductility
+from pier_monitor.core.ingest.settings import Finding
+
+from .states import DAMAGED_DF, SUSPICIOUS_DF, DamageState, classify_ductility, is_diagnosis
 from .uncertainty import K1ChangeInterval, SectionUncertainty, Spread, k1_change_interval
 
 __all__ = [
@@ -57,6 +59,7 @@ __all__ = [
     "IdentificationResult",
     "build_sections",
     "failed_result",
+    "failed_event_result",
     "k1_change_pct",
 ]
 
@@ -273,6 +276,12 @@ class IdentificationResult:
     section is intact, suspicious, damaged
     (:func:`~pier_monitor.core.identify.uncertainty.overall_state_probabilities`); None for a
     single identification.
+
+    ``unreliable_reasons`` are the reasons the result failed its self-check
+    (:func:`~pier_monitor.core.identify.checks.check_identification`): when there are any,
+    every section and the overall state are ``unreliable`` (:meth:`with_check_reasons`),
+    whatever the ductility factors say.  ``findings`` are the ingest's findings about the
+    event's data (repairs, exclusions, failures; sensor and time in each).
     """
 
     pier_id: str
@@ -293,6 +302,13 @@ class IdentificationResult:
     k1_baseline: str = ""
     software_version: str = ""
     p_overall_state: tuple[float, float, float] | None = None
+    unreliable_reasons: tuple[str, ...] = ()
+    findings: tuple[Finding, ...] = ()
+
+    @property
+    def reliable(self) -> bool:
+        """An identification that ran and passed its self-check (its states are diagnoses)."""
+        return self.success and not self.unreliable_reasons
 
     @property
     def members(self) -> int:
@@ -329,8 +345,27 @@ class IdentificationResult:
                                  f"{len(spreads)}")
         sections = tuple(s.rebased(float(b), float(d), label, sp, event=event)
                          for s, b, d, sp in zip(self.sections, base, change, spreads))
+        if self.unreliable_reasons:  # a new baseline never makes an unreliable result a diagnosis
+            sections = _unreliable_sections(sections, self.unreliable_reasons)
         overall = overall_state(sections) if self.success else self.overall_state
         return replace(self, sections=sections, k1_baseline=label, overall_state=overall)
+
+    def with_check_reasons(self, reasons: Sequence[str]) -> IdentificationResult:
+        """A copy that failed its self-check for ``reasons`` (none: the result unchanged).
+
+        Every section and the overall state become ``unreliable``; each section's
+        ``reasons`` are the reasons naming it and those naming no section; ``message`` starts
+        with ``unreliable:`` and the reasons.  The parameters and ductility factors stay, to
+        be read as what the identification gave, not as a diagnosis.
+        """
+        reasons = tuple(str(r) for r in reasons)
+        if not reasons:
+            return self
+        text = "unreliable: " + "; ".join(reasons)
+        return replace(self, sections=_unreliable_sections(self.sections, reasons),
+                       overall_state=DamageState.UNRELIABLE.name.lower(),
+                       unreliable_reasons=reasons,
+                       message=f"{text}; {self.message}" if self.message else text)
 
     def with_baseline(self, baseline: IdentificationResult) -> IdentificationResult:
         """A copy whose ``k1`` changes are relative to an earlier event's result.
@@ -349,15 +384,20 @@ class IdentificationResult:
         d["sections"] = [s.to_dict() for s in self.sections]
         if self.p_overall_state is not None:
             d["p_overall_state"] = list(self.p_overall_state)
+        d["unreliable_reasons"] = list(self.unreliable_reasons)
+        d["findings"] = [f.as_dict() for f in self.findings]
         return d
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> IdentificationResult:
-        """Inverse of :meth:`to_dict`; a result written before uncertainty existed loads."""
+        """Inverse of :meth:`to_dict`; a result written before uncertainty, the self-check or
+        the findings existed loads."""
         d = dict(d)
         d["sections"] = tuple(SectionResult.from_dict(s) for s in d["sections"])
         if d.get("p_overall_state") is not None:
             d["p_overall_state"] = tuple(float(v) for v in d["p_overall_state"])
+        d["unreliable_reasons"] = tuple(str(r) for r in d.get("unreliable_reasons", ()))
+        d["findings"] = tuple(Finding.from_dict(f) for f in d.get("findings", ()))
         return cls(**d)
 
     def save_json(self, path: str | Path) -> Path:
@@ -435,9 +475,32 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
 
 
 def overall_state(sections: tuple[SectionResult, ...]) -> str:
-    """The worst state over the sections."""
-    known = [s.damage_state for s in sections if s.damage_state != DamageState.UNKNOWN]
+    """The worst diagnosis over the sections; ``unreliable`` if any section is.
+
+    Sections without a diagnosis (unknown) are left out; ``unknown`` when none has one.
+    """
+    states = [s.damage_state for s in sections]
+    if DamageState.UNRELIABLE in states:
+        return DamageState.UNRELIABLE.name.lower()
+    known = [s for s in states if is_diagnosis(s)]
     return (max(known) if known else DamageState.UNKNOWN).name.lower()
+
+
+def _section_check_reasons(index: int, reasons: tuple[str, ...]) -> tuple[str, ...]:
+    """The check reasons that concern section ``index`` (0-based): those naming it and those
+    naming no section; a reason about another section only is summarised."""
+    own = tuple(r for r in reasons if r.startswith(f"section {index + 1}:"))
+    general = tuple(r for r in reasons if not r.startswith("section "))
+    if own or general:
+        return own + general
+    return (f"the event's identification is unreliable ({reasons[0]})",)
+
+
+def _unreliable_sections(sections: tuple[SectionResult, ...], reasons: tuple[str, ...]
+                         ) -> tuple[SectionResult, ...]:
+    """Every section ``unreliable``, with the reasons that concern it."""
+    return tuple(replace(s, state=DamageState.UNRELIABLE.name.lower(),
+                         reasons=_section_check_reasons(s.index, reasons)) for s in sections)
 
 
 def failed_result(window: MeasuredWindow, *, device: str, message: str) -> IdentificationResult:
@@ -445,7 +508,7 @@ def failed_result(window: MeasuredWindow, *, device: str, message: str) -> Ident
 
     Every section is ``unknown`` with NaN parameters and no identifiable ``k2``/``fy``, so
     that a failure travels the same way as a diagnosis (result files, damage-state message)
-    and is never read as one.
+    and is never read as one.  The window's findings are kept.
 
     Parameters
     ----------
@@ -456,15 +519,48 @@ def failed_result(window: MeasuredWindow, *, device: str, message: str) -> Ident
     message : str
         What went wrong.
     """
+    return failed_event_result(
+        window.geometry, pier_id=window.pier_id, event_id=window.event_id,
+        start_ns=window.start_time_ns, duration_s=window.duration_s,
+        window_start_s=float(window.t[0]), device=device, message=message,
+        findings=window.findings)
+
+
+def failed_event_result(geometry: PierGeometry, *, pier_id: str, event_id: str, start_ns: int,
+                        duration_s: float, message: str, device: str = "",
+                        window_start_s: float = 0.0, findings: Sequence[Finding] = ()
+                        ) -> IdentificationResult:
+    """The failure record of an event, also one without a window (the ingest failed, or the
+    data end during it): every section ``unknown``, NaN parameters, ``success`` false.
+
+    Parameters
+    ----------
+    geometry : PierGeometry
+        The pier's geometry at the event (N sections).
+    pier_id, event_id : str
+    start_ns : int
+        Start of the event's window (or of its span), ns since the Unix epoch.
+    duration_s : float
+        Length of that span, s.
+    message : str
+        What went wrong, naming the sensor, level, time or field.
+    device : str
+        The training device asked for ("" when no training was started).
+    window_start_s : float
+        ``start_ns`` on the source's clock, s (0 when not known).
+    findings : sequence of Finding
+        The ingest's findings about the event.
+    """
     nan = float("nan")
-    z = window.geometry.level_heights_m
+    z = geometry.level_heights_m
     sections = tuple(SectionResult(
         index=i, z_bottom_m=float(z[i]), z_top_m=float(z[i + 1]), k1=nan, k2=nan, fy=nan, c=nan,
         yield_angle_rad=nan, max_angle_rad=nan, ductility_factor=nan,
         state=DamageState.UNKNOWN.name.lower(), yielded=False, k2_identifiable=False,
-        fy_identifiable=False) for i in range(window.n_levels))
+        fy_identifiable=False) for i in range(geometry.n_levels))
     return IdentificationResult(
-        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
-        overall_state=DamageState.UNKNOWN.name.lower(), window_start_s=float(window.t[0]),
-        window_duration_s=window.duration_s, epochs=0, final_loss=nan, wall_time_s=0.0,
-        device=device, success=False, message=message, window_start_ns=window.start_time_ns)
+        pier_id=pier_id, event_id=event_id, sections=sections,
+        overall_state=DamageState.UNKNOWN.name.lower(), window_start_s=float(window_start_s),
+        window_duration_s=float(duration_s), epochs=0, final_loss=nan, wall_time_s=0.0,
+        device=device, success=False, message=message, window_start_ns=int(start_ns),
+        findings=tuple(findings))

@@ -1,7 +1,11 @@
 """Damage states of a section and the ductility-factor thresholds between them (SPEC §5).
 
 DF < 1.2 intact, 1.2 <= DF < 1.5 suspicious, DF >= 1.5 damaged.  A spring that never yielded
-is intact whatever bound of its DF the fit gives.  :mod:`~pier_monitor.core.identify.damage`
+is intact whatever bound of its DF the fit gives.  Two states are no diagnosis: *unknown*
+(nothing was identified: the identification or the ingest of the event failed) and
+*unreliable* (an identification ran, but its result failed its self-check,
+:func:`~pier_monitor.core.identify.checks.check_identification`: its numbers are reported,
+its state is not intact, suspicious or damaged).  :mod:`~pier_monitor.core.identify.damage`
 re-exports these names; the decisions that use them live there.
 """
 
@@ -11,7 +15,8 @@ from enum import IntEnum
 
 import numpy as np
 
-__all__ = ["DamageState", "SUSPICIOUS_DF", "DAMAGED_DF", "classify_ductility", "member_states"]
+__all__ = ["DamageState", "SUSPICIOUS_DF", "DAMAGED_DF", "DIAGNOSES", "classify_ductility",
+           "is_diagnosis", "member_states"]
 
 #: Lowest ductility factor of a suspicious section (dimensionless).
 SUSPICIOUS_DF = 1.2
@@ -26,6 +31,19 @@ class DamageState(IntEnum):
     SUSPICIOUS = 1
     DAMAGED = 2
     UNKNOWN = 3
+    UNRELIABLE = 4
+
+
+#: The states that are a diagnosis, from the best to the worst; the others (unknown,
+#: unreliable) say that there is none and are never ordered against them.
+DIAGNOSES = (DamageState.INTACT, DamageState.SUSPICIOUS, DamageState.DAMAGED)
+
+
+def is_diagnosis(state: DamageState | str) -> bool:
+    """Whether ``state`` (an enum or its lower-case name) is intact, suspicious or damaged."""
+    if isinstance(state, str):
+        state = DamageState[state.upper()]
+    return state in DIAGNOSES
 
 
 def classify_ductility(df: float) -> DamageState:

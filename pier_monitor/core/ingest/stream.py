@@ -51,7 +51,12 @@ class StreamIngest:
     foundation data the causal trigger runs on the buffered foundation accelerometers; once
     an event has ended (``merge_gap_s`` + ``context_s`` of data after its window), the
     buffered samples are ingested exactly as :func:`ingest_recording` would and the window is
-    returned by :meth:`push`.  Nothing received is dropped: samples stay in the buffer until
+    returned by :meth:`push`.  Sensors arrive on topics of their own and one may lag the
+    foundation (a slow link, a replay faster than real time): an event waits until every
+    sensor that sends has data up to the end of its window's context, or has lagged the
+    foundation by more than ``max_lag_s`` of data (it is then left to the ingest's checks:
+    a sensor that fell silent does not hold the events back).  Only data times count, never
+    the wall clock.  Nothing received is dropped: samples stay in the buffer until
     they are older than ``buffer_s``, and :attr:`counts` accounts for every one of them
     (gaps and duplicates by sample index).
 
@@ -65,7 +70,7 @@ class StreamIngest:
     """
 
     def __init__(self, config: PierConfig, settings: IngestSettings | None = None,
-                 buffer_s: float = 300.0, poll_s: float = 1.0) -> None:
+                 buffer_s: float = 300.0, poll_s: float = 1.0, max_lag_s: float = 30.0) -> None:
         self.config = config
         self.settings = settings or IngestSettings()
         self.buffer_s = buffer_s
@@ -78,6 +83,8 @@ class StreamIngest:
         self._foundation = {sp.sensor_id for sp in config.sensors
                             if sp.level == 0 and sp.kind == "acceleration"}
         self._poll_ns = int(poll_s * NS_PER_S)
+        self._max_lag_ns = int(max_lag_s * NS_PER_S)
+        self._latest_by_sensor: dict[str, int] = {}
         self._last_poll_ns: int | None = None
         self._done_until_ns = -1
         self._history = Recording(config, {}, source="stream")
@@ -174,6 +181,8 @@ class StreamIngest:
         if n:
             last = int(time_ns.max())
             self._latest_ns = last if self._latest_ns is None else max(self._latest_ns, last)
+            self._latest_by_sensor[sensor_id] = max(self._latest_by_sensor.get(sensor_id, last),
+                                                    last)
             expected = self._next_index.get(sensor_id)
             first = int(index[0])
             if expected is not None and first > expected:
@@ -222,9 +231,20 @@ class StreamIngest:
             return []
         spans = detect_events(ag_xy, rate, trigger_threshold(self.config, s), s)
         end_ns = found.end_ns
+        context_ns = int(s.context_s * NS_PER_S)
+
+        def complete(event_end_ns: int) -> bool:
+            """The foundation has been quiet long enough after the event, and every sensor
+            has caught up with its context or lags by more than max_lag_s."""
+            if final:
+                return True
+            return end_ns - event_end_ns >= quiet_ns and all(
+                latest >= event_end_ns + context_ns or end_ns - latest > self._max_lag_ns
+                for latest in self._latest_by_sensor.values())
+
         ready = [sp for sp in spans
                  if t0 + int(sp.start * NS_PER_S / rate) > self._done_until_ns
-                 and (final or end_ns - (t0 + int(sp.end * NS_PER_S / rate)) >= quiet_ns)]
+                 and complete(t0 + int(sp.end * NS_PER_S / rate))]
         if not ready:
             return []
         _, report = ingest_recording(self._recording(), s)
@@ -236,7 +256,7 @@ class StreamIngest:
         for outcome in report.outcomes:
             if outcome.start_ns <= self._done_until_ns:
                 continue
-            if not final and end_ns - outcome.end_ns < quiet_ns:
+            if not complete(outcome.end_ns):
                 continue
             self.report.outcomes.append(outcome)
             self._done_until_ns = outcome.start_ns

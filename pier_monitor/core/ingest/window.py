@@ -28,6 +28,7 @@ import numpy as np
 
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.fileio import atomic_path
+from pier_monitor.core.ingest.settings import Finding
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
 
 __all__ = ["NoiseModel", "Coverage", "MeasuredWindow", "Reproduced", "QUANTITIES",
@@ -325,6 +326,21 @@ class MeasuredWindow:
     def moments_measured(self) -> bool:
         """Whether restoring moments were measured."""
         return self.moments is not None
+
+    @property
+    def findings(self) -> tuple[Finding, ...]:
+        """The ingest's findings about this window's data (``report["findings"]``).
+
+        Raises
+        ------
+        InputDataError
+            If ``report["findings"]`` is not a list of findings.
+        """
+        try:
+            return tuple(Finding.from_dict(f) for f in self.report.get("findings", ()))
+        except (KeyError, TypeError, ValueError, AttributeError) as err:
+            raise InputDataError(f"window {self.event_id!r}: report['findings'] is not a list "
+                                 f"of findings ({type(err).__name__}: {err})") from err
 
     def __eq__(self, other: object) -> bool:
         """Every field equal (arrays exactly, NaN equal to NaN)."""
