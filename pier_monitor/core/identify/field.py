@@ -436,6 +436,8 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
     # a spring that never yielded: fy only bounded below by its largest moment
     p_report = p_model.copy()
     p_report[~yielded, 2] = np.log(np.abs(g_fit[:, ~yielded]).max(axis=0))
+    # ... and k2 not identifiable: the design's ratio (what the fit left there is arbitrary)
+    p_report[~yielded, 1] = pb.prior_mean[~yielded, 1]
     params = _params(p_report)
     stages["joint"] = params
     x = theta @ pb.b_inv.T
