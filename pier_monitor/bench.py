@@ -120,7 +120,9 @@ def score_run(case: str, run: IdentificationRun, truth: SpringParameters,
                                  "p_yielded": u.p_yielded, "p_state": list(u.p_state)}
             for key, spread, value in (("k1", u.k1, truth.k1[i]), ("c", u.c, truth.c[i]),
                                        ("df", u.ductility_factor, df_true[i])):
-                coverage[key].append(bool(spread.lo <= value <= spread.hi))
+                # the DF of a section reported as not yielded is an upper bound ("DF <= 1")
+                lo = 0.0 if key == "df" and not sec.yielded else spread.lo
+                coverage[key].append(bool(lo <= value <= spread.hi))
         springs.append(entry)
     mae = {
         "k1": float(np.mean(np.abs(err["k1"]))),
@@ -261,13 +263,14 @@ def bench_field(seeds: int = 5, piers: tuple[str, ...] = ("edefense", "table1"),
     return out
 
 
-def bench_coverage(seeds: int = 20, members: int = 32, first_seed: int = 100,
+def bench_coverage(seeds: int = 20, members: int = 32, first_seed: int = 200,
                    layouts: tuple[tuple[str, bool], ...] = (("accel", False), ("sparse", False)),
                    shakings: tuple[str, ...] = ("strong", "just_yield")
                    ) -> list[dict[str, Any]]:
     """Calibration of the intervals: field layouts on the E-Defense-style pier, ``seeds``
     seeds (from ``first_seed``: seeds the field suite does not use) with ``members``-member
-    ensembles; ``coverage`` of every run says whether the 90 % intervals held the truth."""
+    ensembles; ``coverage`` of every run says whether the 90 % intervals held the truth
+    (seeds 100-119 calibrated ``FieldSettings.interval_scale``; the default seeds check it)."""
     out = []
     for layout, gnss in layouts:
         for shaking in shakings:

@@ -547,7 +547,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     # receiver at the top, imperfect sensors, no wire
     print("\nthe pier in the field: accelerometers and a GNSS receiver only")
     field = write_synthetic_bag(field_bag, fmt="mcap", seed=args.seed, layout="accel",
-                                gnss=True, scenario="strong")
+                                gnss=True, scenario="strong",
+                                imperfections=SensorImperfections())
     print(_bag_summary(field))
     field_outcome = _identify(field_bag, args.out / "identified_field", args)
     _print_outcome(field_outcome)
