@@ -21,14 +21,22 @@ import math
 import torch
 from torch import nn
 
-__all__ = ["ResponseNet", "MemberNet"]
+__all__ = ["MemberNet"]
 
 
-class ResponseNet(nn.Module):
-    """``τ`` of shape (P, 1) → outputs of shape (P, n_out).
+class MemberNet(nn.Module):
+    """``M`` independent networks of the same shape, evaluated as one batched computation.
+
+    Every weight has a leading member dimension, so that an ensemble trains in one pass:
+    ``τ`` of shape (P, 1), shared by the members, → outputs of shape (M, P, n_out); one
+    identification is ``M = 1``.  ``"paper"`` normalises each member's own batch of times,
+    in training and evaluation alike.  Output layers start at zero, so that a residual
+    network starts at its data.
 
     Parameters
     ----------
+    members : int
+        Number of networks ``M``.
     n_out : int
         Number of outputs (``8N``).
     arch : {"fourier", "paper"}
@@ -39,58 +47,6 @@ class ResponseNet(nn.Module):
         Hidden layers (the paper's ``q``).
     n_fourier : int
         Number of frequencies ``J`` of the Fourier features.
-    """
-
-    def __init__(self, n_out: int, arch: str = "fourier", hidden: int = 64, layers: int = 3,
-                 n_fourier: int = 64) -> None:
-        super().__init__()
-        if arch not in ("fourier", "paper"):
-            raise ValueError(f"arch: expected 'fourier' or 'paper', got {arch!r}")
-        self.arch = arch
-        mods: list[nn.Module] = []
-        if arch == "fourier":
-            self.register_buffer("freqs", math.pi * torch.arange(1, n_fourier + 1,
-                                                                dtype=torch.float64))
-            width = 2 * n_fourier
-            for _ in range(layers):
-                mods += [nn.Linear(width, hidden), nn.Tanh()]
-                width = hidden
-        else:
-            self.register_buffer("freqs", torch.zeros(0, dtype=torch.float64))
-            width = 1
-            for _ in range(layers):
-                mods += [nn.Linear(width, hidden), nn.ReLU(), nn.BatchNorm1d(hidden)]
-                width = hidden
-        self.body = nn.Sequential(*mods)
-        self.head = nn.Linear(width, n_out)
-        nn.init.zeros_(self.head.weight)
-        nn.init.zeros_(self.head.bias)
-
-    def forward(self, tau: torch.Tensor) -> torch.Tensor:
-        """Outputs for scaled times ``tau`` of shape (P, 1)."""
-        if self.arch == "fourier":
-            z = tau * self.freqs
-            h = torch.cat([torch.sin(z), torch.cos(z)], dim=-1)
-        else:
-            h = tau
-        return self.head(self.body(h))
-
-
-class MemberNet(nn.Module):
-    """``M`` independent networks of the same shape, evaluated as one batched computation.
-
-    Every weight has a leading member dimension, so that an ensemble trains in one pass:
-    ``τ`` of shape (P, 1), shared by the members, → outputs of shape (M, P, n_out).  The
-    architectures are those of :class:`ResponseNet` (``"paper"``: batch normalisation over
-    each member's own batch of times, in training and evaluation alike).  Output layers start at zero, so that a residual
-    network starts at its data.
-
-    Parameters
-    ----------
-    members : int
-        Number of networks ``M``.
-    n_out, arch, hidden, layers, n_fourier :
-        As for :class:`ResponseNet`.
     """
 
     def __init__(self, members: int, n_out: int, arch: str = "fourier", hidden: int = 64,

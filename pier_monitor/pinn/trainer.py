@@ -74,7 +74,7 @@ class PinnSettings:
         Training pairs every ``pair_stride`` samples (``t_s = pair_stride · Δt``; the paper
         used 0.1-0.5 s; 1 = every consecutive pair of the window).
     arch, hidden, layers, n_fourier :
-        Network (see :class:`~pier_monitor.pinn.network.ResponseNet`); ``n_fourier = 0``
+        Network (see :class:`~pier_monitor.pinn.network.MemberNet`); ``n_fourier = 0``
         picks ``min(32, P // 4)`` frequencies.
     residual : bool
         Network outputs are corrections to the measured data (in noise units).

@@ -40,7 +40,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, stats
 
 from pier_monitor.core.errors import IdentificationError
 from pier_monitor.core.identify.equation_error import robust_increments
@@ -469,7 +469,8 @@ def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
 
     The covariance is ``s² (JᵀJ)⁻¹`` of the residuals' Jacobian at the solution, with ``s²``
     the reduced chi-square when the fit is worse than its stated misfit floor (never less
-    than one), times ``scale²``.  Each member's springs and gains give its own angles and moments; a spring
+    than one), times ``scale²``; draws the linearisation does not hold for are replaced (see
+    the code).  Each member's springs and gains give its own angles and moments; a spring
     the fit found elastic stays elastic in every member.
     """
     n = pb.n
@@ -480,9 +481,25 @@ def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
     w, vec = np.linalg.eigh(0.5 * (cov + cov.T))
     root = vec * np.sqrt(np.clip(w, 0.0, None))
     rng = np.random.default_rng(seed)
-    draws = sol.x + rng.standard_normal((members, sol.x.size)) @ root.T
-    draws[0] = sol.x
-    draws = np.clip(draws, lo, hi)
+    # the linearisation fails far from the fit (a spring that only just yields: a low fy
+    # draw makes its DF explode): a draw whose chi-square rises beyond what its Gaussian
+    # allows (the 99.9 % point with as many degrees of freedom as parameters) is replaced
+    def cost(z: np.ndarray) -> float:
+        p = z[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
+        p[~yielded, 2] = np.log(10.0 * pb.f_max[~yielded])  # as the members use them
+        p[~yielded, 4] = 0.0
+        return float(np.sum(pb.residual(p, z[_COLUMNS * n:]) ** 2))
+
+    base = cost(sol.x)
+    limit = s2 * scale ** 2 * stats.chi2.ppf(0.999, sol.x.size)
+    draws = [sol.x]
+    for _ in range(8 * members):
+        if len(draws) == members:
+            break
+        z = np.clip(sol.x + root @ rng.standard_normal(sol.x.size), lo, hi)
+        if cost(z) - base <= limit:
+            draws.append(z)
+    draws = np.array(draws + [sol.x] * (members - len(draws)))
     params = np.empty((members, n, 4))
     theta = np.empty((members, pb.t_len, n))
     moment = np.empty_like(theta)
