@@ -7,6 +7,7 @@ as JSON.
 
 from __future__ import annotations
 
+import dataclasses
 import platform
 import tempfile
 import time
@@ -21,14 +22,17 @@ from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
 from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.ingest import StreamIngest, ingest_recording
+from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.ground_motion import GroundMotion, el_centro_1940, synthetic_near_fault
 from pier_monitor.core.model.solver import HAVE_NUMBA, Response, simulate
+from pier_monitor.core.synthetic.field import field_case_recording
 from pier_monitor.core.synthetic.reference import (paper_case_window, realistic_case_window,
                                                    table1_model)
 from pier_monitor.fleet import FleetOptions, LocalPool, RayBackend, run_fleet
-from pier_monitor.pinn import PinnSettings, identify
+from pier_monitor.pinn import IdentificationRun, PinnSettings, identify
 
 __all__ = ["bench_solver", "bench_ingest", "bench_paper", "bench_more", "bench_fleet",
            "run_identification_case",
@@ -68,51 +72,92 @@ def _errors_pct(estimate: np.ndarray, truth: np.ndarray) -> list[float]:
     return [float(v) for v in 100.0 * (np.asarray(estimate) / np.asarray(truth) - 1.0)]
 
 
-def score_identification(case: str, window: MeasuredWindow, truth: SpringParameters,
-                         resp: Response, settings: PinnSettings | None = None,
-                         **info: Any) -> dict[str, Any]:
-    """Identify one window with known truth and score it (errors in % of the truth).
+def _stage_errors(params: SpringParameters, truth: SpringParameters,
+                  yielding: np.ndarray) -> dict[str, float]:
+    """MAE (%) of k1 and c over all springs and over the truly yielding ones."""
+    out = {}
+    for k in ("k1", "c"):
+        err = np.abs(_errors_pct(getattr(params, k), getattr(truth, k)))
+        out[k] = float(np.mean(err))
+        out[f"{k}_yielded"] = float(np.mean(err[yielding])) if yielding.any() else float("nan")
+    return out
 
-    ``mae_pct``: ``k1`` and ``c`` over all springs; ``k2``, ``fy`` and ``df`` over the springs
-    that truly yield (true DF >= 1); ``k2_fy_df2`` is the largest |error| of ``k2``/``fy``
-    over springs with true DF >= 2.
+
+def score_run(case: str, run: IdentificationRun, truth: SpringParameters,
+              theta_true: np.ndarray, **info: Any) -> dict[str, Any]:
+    """Score an identification against known truth (errors in % of the truth).
+
+    ``mae_pct``: ``k1`` and ``c`` over all springs and over the springs that truly yield
+    (true DF >= 1: ``*_yielded``); ``k2``, ``fy`` and ``df`` over the yielding springs;
+    ``k2_fy_df2`` the largest |error| of ``k2``/``fy`` over springs with true DF >= 2.
+    ``stages``: the same k1/c errors after each stage of the identification.  ``states_ok``:
+    every section's state equals the state of its true DF.  With an ensemble, ``coverage``
+    says per section whether the 90 % intervals of k1, c and DF hold the truth.
     """
-    settings = settings or PinnSettings(seed=info.get("seed", 0))
-    run = identify(window, settings)
     result = run.result
     est = result.params
-    df_true = ductility_factors(resp.theta, truth)
+    df_true = np.abs(theta_true).max(axis=0) / truth.yield_angles
     df_est = result.ductility_factors
     yielding = df_true >= 1.0
     strong = df_true >= 2.0
     err = {k: np.array(_errors_pct(getattr(est, k), getattr(truth, k)))
            for k in ("k1", "k2", "fy", "c")}
     err["df"] = np.array(_errors_pct(df_est, df_true))
+    true_states = [classify_ductility(d).name.lower() for d in df_true]
     springs = []
+    coverage: dict[str, list[bool]] = {"k1": [], "c": [], "df": []}
     for i, sec in enumerate(result.sections):
-        springs.append({
+        entry = {
             "spring": i + 1, "true_df": float(df_true[i]), "df": sec.ductility_factor,
-            "yielded": sec.yielded, "state": sec.state,
+            "yielded": sec.yielded, "state": sec.state, "true_state": true_states[i],
             **{k: getattr(sec, k) for k in ("k1", "k2", "fy", "c")},
             "error_pct": {k: float(err[k][i]) for k in ("k1", "k2", "fy", "c", "df")},
-        })
+        }
+        u = sec.uncertainty
+        if u is not None:
+            entry["interval"] = {"k1": [u.k1.lo, u.k1.hi], "c": [u.c.lo, u.c.hi],
+                                 "df": [u.ductility_factor.lo, u.ductility_factor.hi],
+                                 "p_yielded": u.p_yielded, "p_state": list(u.p_state)}
+            for key, spread, value in (("k1", u.k1, truth.k1[i]), ("c", u.c, truth.c[i]),
+                                       ("df", u.ductility_factor, df_true[i])):
+                # the DF of a section reported as not yielded is an upper bound ("DF <= 1")
+                lo = 0.0 if key == "df" and not sec.yielded else spread.lo
+                coverage[key].append(bool(lo <= value <= spread.hi))
+        springs.append(entry)
     mae = {
         "k1": float(np.mean(np.abs(err["k1"]))),
         "c": float(np.mean(np.abs(err["c"]))),
-        "k2": float(np.mean(np.abs(err["k2"][yielding]))),
-        "fy": float(np.mean(np.abs(err["fy"][yielding]))),
-        "df": float(np.mean(np.abs(err["df"][yielding]))),
+        "k1_yielded": float(np.mean(np.abs(err["k1"][yielding]))) if yielding.any() else None,
+        "c_yielded": float(np.mean(np.abs(err["c"][yielding]))) if yielding.any() else None,
+        "k2": float(np.mean(np.abs(err["k2"][yielding]))) if yielding.any() else None,
+        "fy": float(np.mean(np.abs(err["fy"][yielding]))) if yielding.any() else None,
+        "df": float(np.mean(np.abs(err["df"][yielding]))) if yielding.any() else None,
         "k2_fy_df2": float(max(np.abs(err["k2"][strong]).max(initial=0.0),
                                np.abs(err["fy"][strong]).max(initial=0.0))),
     }
-    init_err = {k: float(np.mean(np.abs(_errors_pct(getattr(run.initial, k), getattr(truth, k)))))
-                for k in ("k1", "c")}
-    return {"case": case, **info, "moments_measured": window.moments_measured,
-            "wall_s": result.wall_time_s, "device": result.device, "epochs": result.epochs,
-            "pairs": int(window.t.size - 1), "mae_pct": mae, "initializer_mae_pct": init_err,
-            "yield_detected_ok": bool(np.array_equal(
-                np.array([s.yielded for s in result.sections]), yielding)),
-            "springs": springs}
+    out = {"case": case, **info, "wall_s": result.wall_time_s, "device": result.device,
+           "epochs": result.epochs, "members": result.members, "mae_pct": mae,
+           "initializer_mae_pct": _stage_errors(run.initial, truth, yielding),
+           "stages": {name: _stage_errors(p, truth, yielding) for name, p in run.stages.items()},
+           "yield_detected_ok": bool(np.array_equal(
+               np.array([s.yielded for s in result.sections]), yielding)),
+           "states_ok": [s["state"] for s in springs] == true_states,
+           "springs": springs}
+    if coverage["k1"]:
+        out["coverage"] = coverage
+    return out
+
+
+def score_identification(case: str, window: MeasuredWindow, truth: SpringParameters,
+                         resp: Response, settings: PinnSettings | None = None,
+                         **info: Any) -> dict[str, Any]:
+    """Identify one window with known truth (``resp``: the true responses over the window)
+    and score it (:func:`score_run`)."""
+    settings = settings or PinnSettings(seed=info.get("seed", 0))
+    run = identify(window, settings)
+    scored = score_run(case, run, truth, resp.theta, **info)
+    scored.update(moments_measured=window.moments_measured, pairs=int(window.t.size - 1))
+    return scored
 
 
 def run_identification_case(case: str, *, moments_measured: bool, seed: int,
@@ -158,6 +203,83 @@ def bench_more() -> list[dict[str, Any]]:
     window, truth, resp = realistic_case_window(seed=0)
     out.append(score_identification("realistic_noise", window, truth, resp, seed=0,
                                      noise="acc 1e-3 m/s2, wire 0.1 mm, no v, no f"))
+    return out
+
+
+#: Design values given to the identifier of the field cases, relative to the truth (the
+#: configuration's values are the truth), from the base up: a design that is off, as in the
+#: field.
+DESIGN_FACTORS = {"k1": (0.85, 1.1, 1.2, 0.9, 1.15, 0.8), "k2": (1.2, 0.9, 0.8, 1.1, 1.0, 1.2),
+                         "fy": (0.9, 1.15, 1.1, 0.85, 1.2, 0.9), "c": (1.3, 0.75, 1.2, 0.8, 1.25, 0.7)}
+#: The layouts of the field suite: (layout, GNSS at the top, identification method).
+FIELD_LAYOUTS = (("full", False, "field"), ("full", False, "pinn"), ("accel", False, "auto"),
+                 ("accel", True, "auto"), ("sparse", False, "auto"), ("sparse", True, "auto"))
+
+
+def field_case(pier: str, layout: str, gnss: bool, shaking: str, seed: int
+               ) -> tuple[MeasuredWindow, SpringParameters, np.ndarray]:
+    """One field case ingested as the product ingests it: ``(window, truth, θ_true)``,
+    ``θ_true`` the true spring angles (T, N) at the window's samples."""
+    syn = field_case_recording(pier, layout, gnss, shaking, seed)
+    windows, report = ingest_recording(syn.recording)
+    if len(windows) != 1:
+        reasons = "; ".join(o.failure or "" for o in report.outcomes)
+        raise InputDataError(f"field case {pier}/{layout}/{shaking}/{seed}: expected one "
+                             f"window, got {len(windows)} ({reasons})")
+    window = windows[0]
+    run = syn.truth.runs[0]
+    rate = syn.truth.sample_rate_hz
+    first = int(round((window.start_time_ns - run.start_ns) * rate / 1e9))
+    step = int(round(rate * window.dt))
+    theta = run.response.theta[first:first + step * window.t.size:step]
+    n = window.n_levels
+    design = SpringParameters(*(getattr(run.params, k) * np.asarray(DESIGN_FACTORS[k][:n])
+                                for k in ("k1", "k2", "fy", "c")))
+    window = dataclasses.replace(window, design=design)
+    return window, run.params, theta
+
+
+def bench_field(seeds: int = 5, piers: tuple[str, ...] = ("edefense", "table1"),
+                layouts: tuple[tuple[str, bool, str], ...] = FIELD_LAYOUTS,
+                shakings: tuple[str, ...] = ("strong", "just_yield"),
+                pinn_seeds: int = 1) -> list[dict[str, Any]]:
+    """Every sensor layout on both piers under both shakings, ``seeds`` seeds each: synthetic
+    recordings with imperfect sensors (gains 1 %, azimuths 0.5°, tilts, biases unknown to the
+    configuration), ingested and identified like a bag.  The full layout also through the
+    PINN (``method="pinn"``, minutes per case on a CPU: ``pinn_seeds`` seeds)."""
+    out = []
+    for pier in piers:
+        for layout, gnss, method in layouts:
+            for shaking in shakings:
+                for seed in range(pinn_seeds if method == "pinn" else seeds):
+                    window, truth, theta = field_case(pier, layout, gnss, shaking, seed)
+                    run = identify(window, PinnSettings(seed=seed, method=method))
+                    name = (f"field_{pier}_{layout}{'+gnss' if gnss else ''}"
+                            f"{'' if method == 'auto' else '_' + method}_{shaking}")
+                    out.append(score_run(name, run, truth, theta, seed=seed, pier=pier,
+                                         layout=layout, gnss=gnss, method=method,
+                                         shaking=shaking,
+                                         coverage_layout=window.coverage.layout))
+    return out
+
+
+def bench_coverage(seeds: int = 20, members: int = 32, first_seed: int = 200,
+                   layouts: tuple[tuple[str, bool], ...] = (("accel", False), ("sparse", False)),
+                   shakings: tuple[str, ...] = ("strong", "just_yield")
+                   ) -> list[dict[str, Any]]:
+    """Calibration of the intervals: field layouts on the E-Defense-style pier, ``seeds``
+    seeds (from ``first_seed``: seeds the field suite does not use) with ``members``-member
+    ensembles; ``coverage`` of every run says whether the 90 % intervals held the truth
+    (seeds 100-119 calibrated ``FieldSettings.interval_scale``; the default seeds check it)."""
+    out = []
+    for layout, gnss in layouts:
+        for shaking in shakings:
+            for seed in range(first_seed, first_seed + seeds):
+                window, truth, theta = field_case("edefense", layout, gnss, shaking, seed)
+                run = identify(window, PinnSettings(seed=seed, members=members))
+                name = f"coverage_edefense_{layout}{'+gnss' if gnss else ''}_{shaking}"
+                out.append(score_run(name, run, truth, theta, seed=seed, pier="edefense",
+                                     layout=layout, gnss=gnss, shaking=shaking))
     return out
 
 
@@ -243,6 +365,8 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "paper": bench_paper,
     "more": bench_more,
     "fleet": bench_fleet,
+    "field": bench_field,
+    "coverage": bench_coverage,
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.
@@ -301,4 +425,39 @@ def format_table(results: list[dict[str, Any]]) -> str:
                     f"<=1 ({sp['true_df']:.3f})"
                 lines.append(f"  {sp['spring']:>2} " + " ".join(f"{c:>20}" for c in cells)
                              + f" {df:>16}")
+    if ident:
+        lines.append("")
+        lines.append(summarize_cases(ident))
+    return "\n".join(lines)
+
+
+def _mean(values: list[float | None]) -> float:
+    kept = [v for v in values if v is not None]
+    return float(np.mean(kept)) if kept else float("nan")
+
+
+def summarize_cases(results: list[dict[str, Any]]) -> str:
+    """Per case, means over its seeds: MAE (%) of k1 and c over the springs that truly
+    yield after every stage, of DF, and how many runs got every section's state right."""
+    cases: dict[str, list[dict[str, Any]]] = {}
+    for r in results:
+        cases.setdefault(r["case"], []).append(r)
+    lines = [f"{'case (means over seeds)':<44} {'runs':>4} {'states ok':>9} {'DF%':>6} "
+             f"{'wall_s':>7}  k1% / c% over the yielding springs, after each stage"]
+    for case, runs in cases.items():
+        stages = " ".join(
+            f"{name} {_mean([r['stages'][name]['k1_yielded'] for r in runs]):.2f}/"
+            f"{_mean([r['stages'][name]['c_yielded'] for r in runs]):.1f}"
+            for name in runs[0]["stages"])
+        final = (f"final {_mean([r['mae_pct']['k1_yielded'] for r in runs]):.2f}/"
+                 f"{_mean([r['mae_pct']['c_yielded'] for r in runs]):.1f}")
+        ok = sum(bool(r["states_ok"]) for r in runs)
+        cov = ""
+        if all("coverage" in r for r in runs):
+            cov = "  90 % intervals hold the truth: " + ", ".join(
+                f"{k} {100 * _mean([float(np.mean(r['coverage'][k])) for r in runs]):.0f} %"
+                for k in ("k1", "c", "df"))
+        lines.append(f"{case:<44} {len(runs):>4} {f'{ok}/{len(runs)}':>9} "
+                     f"{_mean([r['mae_pct']['df'] for r in runs]):>6.2f} "
+                     f"{_mean([r['wall_s'] for r in runs]):>7.1f}  {stages} | {final}{cov}")
     return "\n".join(lines)

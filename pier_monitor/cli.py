@@ -62,6 +62,16 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of ``pier-monitor``."""
     parser = argparse.ArgumentParser(
@@ -127,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="benchmarks against known truth",
                            description="Run benchmarks with fixed seeds; print a table.")
     bench.add_argument("--suite", action="append", default=None,
-                       help="suite to run (repeatable): solver, ingest, paper, more, fleet "
+                       help="suite to run (repeatable): solver, ingest, paper, more, fleet, field, coverage "
                             "(default: solver, ingest and paper)")
     bench.add_argument("--all", action="store_true",
                        help="every suite: adds noise 0.1/10 mgal, a long-duration record and "
@@ -181,7 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = sub.add_parser("demo", help="the main job on the embedded synthetic bag",
                           description="Write the synthetic E-Defense-style bag (two runs of "
-                                      "increasing damage), identify both events, print the "
+                                      "increasing damage), identify both events, then a field-network bag of the same pier "
+                                      "(accelerometers and GNSS only), print the "
                                       "per-section tables and their comparison, and leave the "
                                       "figures in the output directory.")
     demo.add_argument("--out", type=Path, default=Path("results/demo"),
@@ -210,13 +221,23 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--train-seed", type=int, default=0, help="seed of the training")
     parser.add_argument("--max-epochs", type=int, default=None,
                         help="epoch limit of the training (default: the benchmarked setting)")
+    parser.add_argument("--members", type=_positive_int, default=None,
+                        help="ensemble members identified together, for the uncertainty of every "
+                             f"number (default {PinnSettings().members}; 1: no uncertainty)")
+    parser.add_argument("--method", choices=("auto", "pinn", "field"), default="auto",
+                        help="pinn: equation-error start and PINN (every level with a "
+                             "displacement and an acceleration); field: the reconstruction "
+                             "from the accelerations (uncalibrated field sensors); auto: pinn "
+                             "where every level is fully measured, else field")
     parser.add_argument("--no-progress", action="store_true",
                         help="no training progress (a bar on a terminal, else a line every 10 s)")
 
 
 def _settings(args: argparse.Namespace) -> PinnSettings:
     """The training settings of the command line's options."""
-    settings = PinnSettings(device=args.device, seed=args.train_seed)
+    settings = PinnSettings(device=args.device, seed=args.train_seed, method=args.method)
+    if args.members is not None:
+        settings.members = args.members
     if args.max_epochs is not None:
         settings.max_epochs = args.max_epochs
         settings.min_epochs = min(settings.min_epochs, args.max_epochs)
@@ -499,12 +520,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     _check_out(args.out / "identified")
+    _check_out(args.out / "identified_field")
     args.out.mkdir(parents=True, exist_ok=True)
     bag = args.out / "edefense_synthetic"
+    field_bag = args.out / "edefense_field.mcap"
     # the demo's own output of an earlier run
     if bag.exists():
         shutil.rmtree(bag)
-    for stale in (bag.with_suffix(".truth.npz"), bag.with_suffix(".truth.json")):
+    for stale in (bag.with_suffix(".truth.npz"), bag.with_suffix(".truth.json"), field_bag,
+                  field_bag.with_suffix(".truth.npz"), field_bag.with_suffix(".truth.json")):
         stale.unlink(missing_ok=True)
     info = write_synthetic_edefense_bag(bag, fmt="rosbag2", seed=args.seed)
     print(_bag_summary(info))
@@ -519,7 +543,19 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         print(comparison.table())
         print("\n".join(comparison.summary_lines()))
         print(f"figures: {paths.profile_png} and in each event directory")
-    return _exit_status(outcome)
+    # the same pier as a field network sees it: accelerometers at every level and a GNSS
+    # receiver at the top, imperfect sensors, no wire
+    print("\nthe pier in the field: accelerometers and a GNSS receiver only")
+    field = write_synthetic_bag(field_bag, fmt="mcap", seed=args.seed, layout="accel",
+                                gnss=True, scenario="strong",
+                                imperfections=SensorImperfections())
+    print(_bag_summary(field))
+    field_outcome = _identify(field_bag, args.out / "identified_field", args)
+    _print_outcome(field_outcome)
+    true_df = ", ".join(f"{d:.2f}" for d in field.truth.runs[0].ductility_factors)
+    print(f"true DF of the field event (from the simulation): {true_df}")
+    codes = {_exit_status(outcome), _exit_status(field_outcome)}
+    return next((c for c in (EXIT_ERROR, EXIT_FAILED, EXIT_UNRELIABLE) if c in codes), EXIT_OK)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:

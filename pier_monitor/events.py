@@ -133,6 +133,6 @@ def identify_window(window: MeasuredWindow, settings: PinnSettings, store: Resul
                             window_file=window_file, paths=None)
     reasons = check_identification(run.result.params, run.reproduced, window)
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
-                            check_reasons=reasons)
+                            check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,
                         window_file=window_file, paths=written.paths)

@@ -62,9 +62,10 @@ from .qos import DAMAGE_STATE_QOS, WINDOW_QOS
 __all__ = ["IdentifierNode", "main", "DEVICES"]
 
 DEVICES = ("auto", "cpu", "cuda")
+METHODS = ("auto", "pinn", "field")
 #: Parameters that are PinnSettings fields of the same name.
 _SETTINGS = ("device", "seed", "max_epochs", "min_epochs", "patience", "pair_stride", "hidden",
-             "layers", "lr_network", "lr_params")
+             "layers", "lr_network", "lr_params", "members", "method")
 
 
 class IdentifierNode(Node):
@@ -97,6 +98,12 @@ class IdentifierNode(Node):
                 lo=1e-9, hi=1.0)
         declare(self, "lr_params", d.lr_params, "Adam learning rate of the log-parameters",
                 lo=1e-9, hi=1.0)
+        declare(self, "members", d.members, "Ensemble members identified together (the "
+                "uncertainty of every number; 1: none)", lo=1, hi=1024)
+        declare(self, "method", d.method, "pinn: equation-error start and PINN (every level "
+                "with a displacement and an acceleration); field: the reconstruction from the "
+                "accelerations; auto: pinn where every level is fully measured, else field",
+                choices=METHODS)
         declare(self, "progress_every", 10, "Publish progress every this many epochs",
                 unit="epochs", lo=1, hi=100_000)
         declare(self, "write_figures", True, "Also write the report figures (a few seconds "
@@ -108,7 +115,8 @@ class IdentifierNode(Node):
                 unit="s", lo=0.1, hi=60.0)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         # The first check ran before the callback existed: apply it to the declared values.
-        result = self._on_set_parameters([self.get_parameter("device")])
+        result = self._on_set_parameters([self.get_parameter("device"),
+                                          self.get_parameter("method")])
         if not result.successful:
             raise ValueError(result.reason)
 
@@ -145,6 +153,9 @@ class IdentifierNode(Node):
         if "device" in values and values["device"] not in DEVICES:
             return SetParametersResult(successful=False, reason=(
                 f"device: {values['device']!r} is not one of {', '.join(DEVICES)}"))
+        if "method" in values and values["method"] not in METHODS:
+            return SetParametersResult(successful=False, reason=(
+                f"method: {values['method']!r} is not one of {', '.join(METHODS)}"))
         if {"min_epochs", "max_epochs"} & set(values):
             lo = values.get("min_epochs", self._param("min_epochs"))
             hi = values.get("max_epochs", self._param("max_epochs"))

@@ -165,7 +165,8 @@ class IngestNode(Node):
             if msg_type is Imu:  # no sample index: the stream derives it from the stamps
                 (times, data), index = imu_arrays(msg, spec, topic), None
             else:
-                times, data, index = block_arrays(msg, spec, self._stream.rate, topic)
+                times, data, index = block_arrays(
+                    msg, spec, self._stream.config.sensor_rate_hz(spec), topic)
         except Exception as err:
             self._drop(topic, err)
             return

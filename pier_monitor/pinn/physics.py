@@ -1,9 +1,10 @@
 """Physics residuals of the PINN (paper eqs. 20-26 with SPEC §3's corrections), in torch.
 
 All residuals are evaluated on training pairs ``(t, t + Δt)``.  Responses come as tensors
-of shape ``(P, N)`` (``P`` pairs, ``N`` levels); parameters as tensors of shape ``(..., N)``
-so that a batch of parameter sets (the paper's update rule tries several at once) broadcasts
-to residuals of shape ``(..., P, N)``.
+of shape ``(..., P, N)`` (``P`` pairs, ``N`` levels; a leading member dimension for an
+ensemble), the foundation acceleration as ``(..., P)``, parameters as tensors of shape
+``(..., N)``, so that members and batches of parameter sets (the paper's update rule tries
+several at once) broadcast to residuals of shape ``(..., P, N)``.
 """
 
 from __future__ import annotations
@@ -57,7 +58,7 @@ class Physics:
             c: torch.Tensor) -> torch.Tensor:
         """``M(ẍ + 1 a_g) + Bᵀ diag(c) B ẋ + Bᵀ f`` (eq. 21), N; shape (..., P, N)."""
         damper = (self.angles(v) * c.unsqueeze(-2)) @ self.b  # (..., P, N): Bᵀ diag(c) B ẋ
-        return self.m * (a + ag[:, None]) + damper + f @ self.b
+        return self.m * (a + ag.unsqueeze(-1)) + damper + f @ self.b
 
     def newmark_acceleration(self, p: PairTensors, ag1: torch.Tensor,
                              c: torch.Tensor) -> torch.Tensor:
@@ -117,5 +118,5 @@ class Physics:
     def estimated_moments(self, a: torch.Tensor, v: torch.Tensor, ag: torch.Tensor,
                           c: torch.Tensor) -> torch.Tensor:
         """Eq. 27: ``(Bᵀ)⁻¹(−M(ẍ + 1 a_g)) − diag(c) B ẋ``, N·m; shape (..., P, N)."""
-        g = (-(a + ag[:, None]) * self.m) @ self.bt_inv.T
+        g = (-(a + ag.unsqueeze(-1)) * self.m) @ self.bt_inv.T
         return g - self.angles(v) * c.unsqueeze(-2)

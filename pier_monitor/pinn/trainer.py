@@ -22,6 +22,7 @@ flagged as not identifiable.
 
 from __future__ import annotations
 
+import json
 import logging
 import time
 from dataclasses import asdict, dataclass, field
@@ -32,11 +33,15 @@ import torch
 
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.identify.damage import IdentificationResult, build_sections, overall_state
+from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments, yield_test
+from pier_monitor.core.identify.field import FieldSettings, fit_field
 from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.model.link_model import angle_matrix
+from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
+                                                    summarize_members)
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
-from .network import ResponseNet
+from .network import MemberNet
 from .physics import PairTensors, Physics
 
 __all__ = ["PAPER_TERM_WEIGHTS", "DEFAULT_TERM_WEIGHTS", "PinnSettings", "Progress", "Reproduced",
@@ -69,7 +74,7 @@ class PinnSettings:
         Training pairs every ``pair_stride`` samples (``t_s = pair_stride · Δt``; the paper
         used 0.1-0.5 s; 1 = every consecutive pair of the window).
     arch, hidden, layers, n_fourier :
-        Network (see :class:`~pier_monitor.pinn.network.ResponseNet`); ``n_fourier = 0``
+        Network (see :class:`~pier_monitor.pinn.network.MemberNet`); ``n_fourier = 0``
         picks ``min(32, P // 4)`` frequencies.
     residual : bool
         Network outputs are corrections to the measured data (in noise units).
@@ -95,6 +100,24 @@ class PinnSettings:
     seed : int
     yield_score : float
         Threshold of the yield test (see :func:`~pier_monitor.core.identify.equation_error.yield_test`).
+    field_settings : FieldSettings
+        The reconstruction of windows from field networks (levels without a displacement
+        sensor, or without any sensor).
+    members : int
+        Members of the ensemble trained together (1: one identification, no uncertainty).
+        Member 0 trains on the measured window from the start; the others on copies
+        perturbed as the noise model allows (:mod:`pier_monitor.core.identify.ensemble`),
+        each from the start scattered by ``member_start_sd`` (a multi-start).
+    member_start_sd : float
+        Relative spread of the members' starting parameters (log-normal).
+    method : {"auto", "pinn", "field"}
+        ``pinn``: the equation-error start and the PINN, for windows with a displacement
+        and an acceleration at every level (a shaking table with calibrated sensors: the
+        most accurate there); ``field``: the reconstruction from the accelerations
+        (:func:`~pier_monitor.core.identify.field.fit_field`, measured displacements used
+        where there are any), for windows that start at rest; it tolerates uncalibrated
+        gains (about 1 %) and misaligned sensors, which bias the equation-error start.
+        ``auto``: ``pinn`` with every level fully measured, else ``field``.
     """
 
     pair_stride: int = 1
@@ -119,6 +142,14 @@ class PinnSettings:
     device: str = "auto"
     seed: int = 0
     yield_score: float = 50.0
+    field_settings: FieldSettings = field(default_factory=FieldSettings)
+    members: int = 1
+    method: str = "auto"
+    member_start_sd: float = 0.02
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON form (lists for tuples), as a result records it."""
+        return json.loads(json.dumps(asdict(self)))
 
     def validate(self) -> None:
         """Raise :class:`InputDataError` naming the first bad setting."""
@@ -139,6 +170,10 @@ class PinnSettings:
             ("init", self.init in ("equation_error", "design")),
             ("patience", self.patience >= 1), ("tol", self.tol > 0),
             ("device", self.device in ("auto", "cpu", "cuda")),
+            ("members", self.members >= 1),
+            ("method", self.method in ("auto", "pinn", "field")),
+            ("member_start_sd", self.member_start_sd >= 0),
+            ("param_rule", self.param_rule == "adam" or self.members == 1),
         ]
         for name, ok in checks:
             if not ok:
@@ -168,6 +203,10 @@ class IdentificationRun:
     reproduced: Reproduced
     initial: SpringParameters
     history: dict[str, list[Any]] = field(default_factory=dict)
+    #: parameters after each stage of the identification, in order (the last is the result)
+    stages: dict[str, SpringParameters] = field(default_factory=dict)
+    #: the members' reproduced histories (M, T, N) when an ensemble was trained
+    members: MemberResponses | None = None
 
 
 def resolve_device(name: str) -> torch.device:
@@ -183,13 +222,21 @@ def resolve_device(name: str) -> torch.device:
 
 
 class _Problem:
-    """Tensors and loss of one window on one device."""
+    """Tensors and loss of one window's members on one device.
 
-    def __init__(self, window: MeasuredWindow, settings: PinnSettings, device: torch.device,
-                 init: SpringParameters) -> None:
+    Member ``m`` trains on ``windows[m]`` (member 0: the measured window; the others its
+    perturbed copies, :func:`~pier_monitor.core.identify.ensemble.member_windows`).  Data
+    tensors have shape (M, P, N), the foundation acceleration (M, P); scales, noise and the
+    errors-in-variables variances come from the measured window and are shared.
+    """
+
+    def __init__(self, windows: list[MeasuredWindow], settings: PinnSettings,
+                 device: torch.device, init: SpringParameters) -> None:
+        window = windows[0]
         self.window = window
         self.settings = settings
         self.device = device
+        self.members = len(windows)
         dt_ = torch.float64
         n = window.n_levels
         self.n = n
@@ -202,15 +249,17 @@ class _Problem:
         span = window.t[-1] - window.t[0]
         self.tau_all = tt(2.0 * (window.t - window.t[0]) / span - 1.0)[:, None]
         self.tau = self.tau_all[self.idx0]
-        self.ag0, self.ag1 = tt(window.ag[self.idx0]), tt(window.ag[idx1])
-        self.ag_all = tt(window.ag)
-        data = {"a": window.a, "v": window.v, "x": window.x}
+        self.ag_all = tt(np.stack([w.ag for w in windows]))
+        self.ag0, self.ag1 = self.ag_all[:, self.idx0], self.ag_all[:, idx1]
+        keys = ("a", "v", "x")
         self.measured_f = window.moments is not None
         if self.measured_f:
-            data["f"] = window.moments
-        self.data0 = {k: tt(v[self.idx0]) for k, v in data.items()}
-        self.data1 = {k: tt(v[idx1]) for k, v in data.items()}
-        self.data_all = {k: tt(v) for k, v in data.items()}
+            keys += ("f",)
+        stacked = {k: np.stack([getattr(w, "moments" if k == "f" else k) for w in windows])
+                   for k in keys}
+        self.data_all = {k: tt(v) for k, v in stacked.items()}
+        self.data0 = {k: v[:, self.idx0] for k, v in self.data_all.items()}
+        self.data1 = {k: v[:, idx1] for k, v in self.data_all.items()}
         # scales (α of the paper) from the measured maxima
         f_ref = window.moments if self.measured_f else (
             inertia_moments(window.geometry, window.a, window.ag)
@@ -252,17 +301,18 @@ class _Problem:
         self.hyst_floor = tt(floor)
         self.var_ref = tt(var_df + init.k1 ** 2 * var_dtheta + floor ** 2)
 
-    def outputs(self, net: ResponseNet, c: torch.Tensor, tau: torch.Tensor,
+    def outputs(self, net: MemberNet, c: torch.Tensor, tau: torch.Tensor,
                 idx0: np.ndarray | None) -> tuple[PairTensors, dict[str, torch.Tensor]]:
-        """Network outputs as responses; also the data targets at those times."""
+        """Network outputs as responses (M, P, N), and the data targets at those times;
+        ``c`` of shape (M, N)."""
         n = self.n
-        raw = net(tau).reshape(-1, 2, 4, n)  # (P, instant, quantity, N)
+        raw = net(tau).reshape(self.members, -1, 2, 4, n)  # (M, P, instant, quantity, N)
         if idx0 is None:  # training pairs
             d0, d1, ag0, ag1 = self.data0, self.data1, self.ag0, self.ag1
         else:
-            d0 = {k: v[idx0] for k, v in self.data_all.items()}
-            d1 = {k: v[idx0 + 1] for k, v in self.data_all.items()}
-            ag0, ag1 = self.ag_all[idx0], self.ag_all[idx0 + 1]
+            d0 = {k: v[:, idx0] for k, v in self.data_all.items()}
+            d1 = {k: v[:, idx0 + 1] for k, v in self.data_all.items()}
+            ag0, ag1 = self.ag_all[:, idx0], self.ag_all[:, idx0 + 1]
         if not self.measured_f:
             d0 = dict(d0, f=self.phys.estimated_moments(d0["a"], d0["v"], ag0, c))
             d1 = dict(d1, f=self.phys.estimated_moments(d1["a"], d1["v"], ag1, c))
@@ -270,10 +320,9 @@ class _Problem:
         for inst, d in ((0, d0), (1, d1)):
             for qi, q in enumerate(("a", "v", "x", "f")):
                 if self.settings.residual:
-                    out.append(d[q] + self.noise[q] * raw[:, inst, qi])
+                    out.append(d[q] + self.noise[q] * raw[:, :, inst, qi])
                 else:
-                    s = self.scale[q]
-                    out.append(s * raw[:, inst, qi])
+                    out.append(self.scale[q] * raw[:, :, inst, qi])
         pairs = PairTensors(*out)
         targets = {"a0": d0["a"], "v0": d0["v"], "x0": d0["x"], "f0": d0["f"],
                    "a1": d1["a"], "v1": d1["v"], "x1": d1["x"], "f1": d1["f"],
@@ -283,7 +332,8 @@ class _Problem:
     def loss_terms(self, p: PairTensors, tg: dict[str, torch.Tensor], k1: torch.Tensor,
                    k2: torch.Tensor, fy: torch.Tensor, c: torch.Tensor
                    ) -> dict[str, torch.Tensor]:
-        """Loss terms; parameter tensors of shape (..., N) give terms of shape (...)."""
+        """Loss terms of every member, each of shape (M,) (parameters (M, N)); a batch of
+        parameter sets (S, M, N) gives terms (S, M)."""
         ms = lambda r: (r ** 2).mean(dim=(-2, -1))
         sc = self.scale
         data = 0.0
@@ -307,6 +357,7 @@ class _Problem:
         }
 
     def total(self, terms: dict[str, torch.Tensor]) -> torch.Tensor:
+        """The loss of each member (terms of shape (...))."""
         s = self.settings
         physics = sum(s.term_weights.get(k, 1.0) * terms[k] for k in TERMS[1:])
         return s.data_weight * terms["data"] + s.physics_weight * physics
@@ -324,11 +375,12 @@ def _params_from_log(logp: torch.Tensor, ref: torch.Tensor) -> tuple[torch.Tenso
 
 
 def _project(logp: torch.Tensor, ref: torch.Tensor, f_cap: torch.Tensor) -> None:
-    """In place: ``k2 <= k1/2`` and ``fy <= f_cap`` (positivity holds by the log form)."""
+    """In place, every member: ``k2 <= k1/2`` and ``fy <= f_cap`` (positivity holds by the
+    log form); ``logp`` and ``ref`` of shape (M, 4, N)."""
     with torch.no_grad():
         k1, k2, fy, _ = _params_from_log(logp, ref)
-        logp[1] = torch.log(torch.minimum(k2, 0.5 * k1) / ref[1])
-        logp[2] = torch.log(torch.minimum(fy, f_cap) / ref[2])
+        logp[:, 1] = torch.log(torch.minimum(k2, 0.5 * k1) / ref[:, 1])
+        logp[:, 2] = torch.log(torch.minimum(fy, f_cap) / ref[:, 2])
 
 
 def _paper_rule_step(problem: _Problem, pairs: PairTensors, tg: dict[str, torch.Tensor],
@@ -406,6 +458,12 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
     torch.manual_seed(settings.seed)
     np.random.seed(settings.seed)
     geometry = window.geometry
+    if settings.method == "pinn" and not window.coverage.is_full:
+        raise IdentificationError(
+            f"window {window.event_id}: method 'pinn' needs a displacement and an acceleration "
+            f"at every level; this window's layout is {window.coverage.layout}")
+    if settings.method == "field" or not window.coverage.is_full:
+        return _identify_field(window, settings, baseline_k1, t_start, device)
 
     # starting point
     if settings.init == "equation_error":
@@ -415,25 +473,35 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
     else:
         init, yielded0 = window.design, np.ones(window.n_levels, dtype=bool)
 
-    problem = _Problem(window, settings, device, init)
+    windows = member_windows(window, settings.members, seed=settings.seed)
+    problem = _Problem(windows, settings, device, init)
+    members = problem.members
     n = window.n_levels
     n_pairs = problem.idx0.size
     n_fourier = settings.n_fourier or int(min(32, max(8, n_pairs // 4)))
-    net = ResponseNet(8 * n, settings.arch, settings.hidden, settings.layers,
-                      n_fourier).to(device=device, dtype=torch.float64)
-    ref = torch.as_tensor(np.stack([init.k1, init.k2, init.fy, init.c]), dtype=torch.float64,
-                          device=device)
-    ref = torch.where(ref > 0, ref, torch.ones_like(ref))
+    net = MemberNet(members, 8 * n, settings.arch, settings.hidden, settings.layers,
+                    n_fourier).to(device=device)
+    start = torch.as_tensor(np.stack([init.k1, init.k2, init.fy, init.c]), dtype=torch.float64,
+                            device=device)
+    start = torch.where(start > 0, start, torch.ones_like(start))
     # a spring that did not yield is held elastic: its fy goes to the cap, far from the
     # moments, so the clip of the hysteresis rule never acts on noise at the peaks (a held
     # fy equal to the largest moment would clip there and drag k1)
-    ref[2] = torch.where(torch.as_tensor(~yielded0, device=device), problem.f_cap, ref[2])
+    held = torch.as_tensor(~yielded0, device=device)
+    start[2] = torch.where(held, problem.f_cap, start[2])
+    # every member starts from the start, the others a multi-start spread around it
+    spread = torch.ones(members, 4, n, dtype=torch.float64, device=device)
+    if members > 1:
+        gen = torch.Generator(device="cpu").manual_seed(settings.seed + 1)
+        draw = torch.randn(members - 1, 4, n, generator=gen, dtype=torch.float64)
+        spread[1:] = torch.exp(settings.member_start_sd * draw).to(device)
+    ref = start * spread
     logp = torch.zeros_like(ref, requires_grad=True)
     # held parameters: k2, fy of springs that did not yield
     free = torch.ones_like(ref)
-    held = torch.as_tensor(~yielded0, device=device)
-    free[1] = torch.where(held, 0.0, 1.0)
-    free[2] = torch.where(held, 0.0, 1.0)
+    free[:, 1] = torch.where(held, 0.0, 1.0)
+    free[:, 2] = torch.where(held, 0.0, 1.0)
+    _project(logp, ref, problem.f_cap)
     opt_net = torch.optim.Adam(net.parameters(), lr=settings.lr_network)
     opt_par = torch.optim.Adam([logp], lr=settings.lr_params)
     history: dict[str, list[Any]] = {k: [] for k in ("loss", *TERMS)}
@@ -446,11 +514,8 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
         k1, k2, fy, c = _params_from_log(logp, ref)
         pairs, tg = problem.outputs(net, c, problem.tau, None)
         terms = problem.loss_terms(pairs, tg, k1, k2, fy, c)
-        loss = terms["data"] if warm else problem.total(terms)
-        if not torch.isfinite(loss):
-            raise IdentificationError(
-                f"training diverged at epoch {epoch}: loss is {loss.item()} "
-                f"(terms: {', '.join(f'{k}={v.item():.3g}' for k, v in terms.items())})")
+        per_member = terms["data"] if warm else problem.total(terms)
+        loss = per_member.sum()  # members are independent: their gradients do not mix
         opt_net.zero_grad()
         opt_par.zero_grad()
         loss.backward()
@@ -462,24 +527,33 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
                 _project(logp, ref, problem.f_cap)
             else:
                 with torch.no_grad():
-                    k_now = torch.stack(_params_from_log(logp, ref))
-                    k_in = ref if settings.init == "design" else torch.as_tensor(
+                    k_now = torch.stack(_params_from_log(logp[0], ref[0]))
+                    k_in = ref[0] if settings.init == "design" else torch.as_tensor(
                         np.stack([window.design.k1, window.design.k2, window.design.fy,
                                   window.design.c]), dtype=torch.float64, device=device)
                     new = _paper_rule_step(problem, _detach(pairs), _detach_dict(tg), k_now,
-                                           k_in, settings.paper_lr2, free)
-                    logp.copy_(torch.log(new / ref))
-        loss_val = float(loss.item())
+                                           k_in, settings.paper_lr2, free[0])
+                    logp[0].copy_(torch.log(new / ref[0]))
         with torch.no_grad():
-            k_cur = torch.stack(_params_from_log(logp, ref))
+            k_cur = torch.stack(_params_from_log(logp, ref), dim=1)  # (M, 4, N)
+            # one transfer per epoch: member 0's loss terms and parameters
+            report = torch.cat([per_member[:1], torch.stack([v[0] for v in terms.values()]),
+                                k_cur[0].reshape(-1)]).cpu().numpy()
+        loss_val = float(report[0])
+        if not np.isfinite(report[:len(terms) + 1]).all() or not torch.isfinite(
+                per_member).all():
+            raise IdentificationError(
+                f"training diverged at epoch {epoch}: loss is {loss_val} (member 0 terms: "
+                f"{', '.join(f'{k}={v:.3g}' for k, v in zip(terms, report[1:]))})")
         history["loss"].append(loss_val)
-        for k, v in terms.items():
-            history[k].append(float(v.item()))
-        k_np = k_cur.cpu().numpy()
+        for k, v in zip(terms, report[1:1 + len(terms)]):
+            history[k].append(float(v))
+        k_np = report[1 + len(terms):].reshape(4, n)
         history["params"].append(k_np.tolist())
         if callback is not None:
             callback(Progress(epoch=epoch, max_epochs=settings.max_epochs + settings.warmup_epochs,
-                              loss=loss_val, terms={k: float(v.item()) for k, v in terms.items()},
+                              loss=loss_val,
+                              terms={k: float(v) for k, v in zip(terms, report[1:])},
                               k1=k_np[0], k2=k_np[1], fy=k_np[2], c=k_np[3],
                               elapsed_s=time.perf_counter() - t_start))
         if warm:
@@ -497,34 +571,96 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
         k1, k2, fy, c = _params_from_log(logp, ref)
         idx = np.arange(window.t.size - 1)
         pairs, _ = problem.outputs(net, c, problem.tau_all[idx], idx)
-        take = lambda q: torch.cat([getattr(pairs, q + "0"), getattr(pairs, q + "1")[-1:]]).cpu().numpy()
-        rep = {q: take(q) for q in ("a", "v", "x", "f")}
-        params = SpringParameters(*(t.cpu().numpy() for t in (k1, k2, fy, c)))
+        take = lambda q: torch.cat([getattr(pairs, q + "0"), getattr(pairs, q + "1")[:, -1:]],
+                                   dim=1).cpu().numpy()
+        rep = {q: take(q) for q in ("a", "v", "x", "f")}  # (M, T, N)
+        member_params = np.stack([t.cpu().numpy() for t in (k1, k2, fy, c)], axis=-1)
     b = angle_matrix(geometry.section_heights_m)
-    theta = rep["x"] @ b.T
-    yielded = np.array([
-        yielded0[i] and yield_test(theta[:, i], rep["f"][:, i], params.k1[i], params.k2[i],
-                                   params.fy[i], settings.yield_score)[0]
-        for i in range(n)])
-    if np.any(~yielded):  # never yielded: fy only bounded below by the largest moment
-        fy_arr = params.fy.copy()
-        fy_arr[~yielded] = np.abs(rep["f"][:, ~yielded]).max(axis=0)
-        params = SpringParameters(params.k1, params.k2, fy_arr, params.c)
-    sections = build_sections(geometry, params, theta, yielded,
-                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1)
+    theta = rep["x"] @ b.T  # (M, T, N)
+    yielded = np.array([[yielded0[i] and yield_test(
+        theta[m, :, i], rep["f"][m, :, i], member_params[m, i, 0], member_params[m, i, 1],
+        member_params[m, i, 2], settings.yield_score)[0] for i in range(n)]
+        for m in range(members)])
+    # never yielded: fy only bounded below by the largest moment (k2, fy not identifiable)
+    f_max = np.abs(rep["f"]).max(axis=1)
+    member_params[..., 2] = np.where(yielded, member_params[..., 2], f_max)
+    params = SpringParameters(*(member_params[0, :, j] for j in range(4)))
+    ductility = np.abs(theta).max(axis=1) / (member_params[..., 2] / member_params[..., 0])
+    ductility = np.where(yielded, ductility, np.minimum(ductility, 1.0))
+    uncertainty = None
+    if members > 1:
+        kept = _converged_members(member_params, ductility)
+        masked = member_params.copy()
+        masked[..., 1:3] = np.where(yielded[..., None], masked[..., 1:3], np.nan)
+        uncertainty = summarize_members(masked[kept], ductility[kept], yielded[kept])
+    sections = build_sections(geometry, params, theta[0], yielded[0],
+                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1,
+                              uncertainty=uncertainty)
     wall = time.perf_counter() - t_start
     result = IdentificationResult(
         pier_id=window.pier_id, event_id=window.event_id, sections=sections,
         overall_state=overall_state(sections), window_start_s=float(window.t[0]),
         window_duration_s=window.duration_s, epochs=epoch, final_loss=loss_val,
         wall_time_s=wall, device=str(device), success=True,
-        message=f"trained {epoch} epochs on {n_pairs} pairs",
-        settings=asdict(settings),
-        history={k: v for k, v in history.items() if k != "params"})
-    reproduced = Reproduced(t=window.t.copy(), a=rep["a"], v=rep["v"], x=rep["x"], theta=theta,
-                            moment=rep["f"])
+        message=(f"trained {epoch} epochs on {n_pairs} pairs"
+                 + (f", {members} members" if members > 1 else "")),
+        settings=settings.as_dict(),
+        history={k: v for k, v in history.items() if k != "params"},
+        p_overall_state=(overall_state_probabilities(ductility, yielded) if members > 1
+                         else None))
+    reproduced = Reproduced(t=window.t.copy(), a=rep["a"][0], v=rep["v"][0], x=rep["x"][0],
+                            theta=theta[0], moment=rep["f"][0])
+    member_responses = None if members == 1 else MemberResponses(
+        theta=theta, moment=rep["f"], x=rep["x"], a=rep["a"])
     return IdentificationRun(result=result, reproduced=reproduced, initial=init,
-                             history=history)
+                             history=history, stages={"equation_error": init, "pinn": params},
+                             members=member_responses)
+
+
+def _converged_members(params: np.ndarray, ductility: np.ndarray) -> np.ndarray:
+    """Members whose parameters and ductility factors are finite and positive, (M,) bool."""
+    return (np.isfinite(params[..., [0, 3]]).all(axis=(1, 2))
+            & (params[..., [0, 3]] > 0).all(axis=(1, 2))
+            & np.isfinite(ductility).all(axis=1) & (ductility > 0).all(axis=1))
+
+
+def _identify_field(window: MeasuredWindow, settings: PinnSettings,
+                    baseline_k1: np.ndarray | None, t_start: float,
+                    device: torch.device) -> IdentificationRun:
+    """A window from a field network: the springs and the unmeasured motion reconstructed
+    from the physics (:func:`~pier_monitor.core.identify.field.fit_field`)."""
+    fit = fit_field(window, settings.field_settings, members=settings.members,
+                    seed=settings.seed)
+    params = fit.params
+    uncertainty = p_overall = member_responses = None
+    if fit.members is not None:
+        ens = fit.members
+        masked = ens.params.copy()
+        masked[..., 1:3] = np.where(ens.yielded[..., None], masked[..., 1:3], np.nan)
+        uncertainty = summarize_members(masked, ens.ductility, ens.yielded)
+        p_overall = overall_state_probabilities(ens.ductility, ens.yielded)
+        x_members = ens.theta @ np.linalg.inv(angle_matrix(window.geometry.section_heights_m)).T
+        member_responses = MemberResponses(theta=ens.theta, moment=ens.moment, x=x_members)
+    sections = build_sections(window.geometry, params, fit.theta, fit.yielded,
+                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1,
+                              uncertainty=uncertainty)
+    wall = time.perf_counter() - t_start
+    stage_names = list(fit.stages)
+    result = IdentificationResult(
+        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
+        overall_state=overall_state(sections), window_start_s=float(window.t[0]),
+        window_duration_s=window.duration_s, epochs=0, final_loss=float("nan"),
+        wall_time_s=wall, device=str(device), success=True,
+        message=(f"{window.coverage.layout} layout: springs reconstructed from the physics "
+                 f"({', '.join(stage_names)})"
+                 + (f", {settings.members} members" if fit.members is not None else "")),
+        settings=settings.as_dict(), history={}, p_overall_state=p_overall)
+    a = np.where(window.coverage.acceleration, window.a, np.gradient(fit.v, window.dt, axis=0))
+    reproduced = Reproduced(t=window.t.copy(), a=a, v=fit.v, x=fit.x, theta=fit.theta,
+                            moment=fit.moment)
+    return IdentificationRun(result=result, reproduced=reproduced,
+                             initial=fit.stages[stage_names[0]], history={},
+                             stages=dict(fit.stages), members=member_responses)
 
 
 def _detach(p: PairTensors) -> PairTensors:

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from fault_injection import drop, short_recording
+from fault_injection import edit, idx, short_recording
 from ros_helpers import (NS, REPO_ROOT, RUN_SCRIPT, TINY, Listener, check_markers, interrupt,
                          params_file, start_node, wait_until)
 
@@ -455,6 +455,39 @@ def test_record_topics_writes_an_mcap_that_decodes_with_mcap_ros2(
     node.destroy_publisher(block_pub)
 
 
+def test_field_network_bag_live_equals_offline(listener, spawn_python, tmp_path):
+    """Accelerometers at every level and a 10 Hz GNSS receiver at the top, no wire: the live
+    graph reconstructs the springs exactly as ``identify`` does for the same bag."""
+    from pier_monitor.bags.synthetic_bag import write_synthetic_bag
+    from pier_monitor.pinn import PinnSettings
+    from pier_monitor.pipeline import identify_bag
+    from pier_monitor.report.results import damage_state_fields
+
+    info = write_synthetic_bag(tmp_path / "field.mcap", fmt="mcap", seed=2, layout="accel",
+                               gnss=True, scenario="just_yield", block_s=0.5)
+    offline = identify_bag(info.bag.path, tmp_path / "offline", settings=PinnSettings(**TINY))
+    coverage, = (ev.window.coverage for ev in offline.events)
+    assert coverage.acceleration.all() and coverage.displacement.tolist() == [False] * 3 + [True]
+    params = params_file(tmp_path / "params.yaml", tmp_path)
+    graph = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/start_graph.py"),
+                         "--namespace", NS, "--params-file", str(params))
+    graph.wait_for_line("READY", 30)
+    graph.wait_for_line("READY", 30)
+    player = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/replay_bag.py"),
+                          str(info.bag.path), "--rate", "8")
+    player.wait_for_line("SENT", 120)
+    assert player.stop() == 0
+    listener.wait(lambda: len(listener.states) >= 1, 90, "the damage state")
+    live, = listener.states
+    want = damage_state_fields(offline.events[0].result)
+    assert live.success and live.overall_state == want["overall_state"]
+    for got, exp in zip(live.sections, want["sections"], strict=True):
+        assert got.state == exp["state"]
+        for key in ("k1", "c", "ductility_factor"):
+            assert getattr(got, key) == pytest.approx(exp[key], rel=1e-6), key
+    assert interrupt(graph) == 0
+
+
 @pytest.mark.timeout(120)
 def test_window_messages_with_unsafe_ids_are_refused_and_the_next_window_is_identified(
         offline, listener, spawn_python, tmp_path):
@@ -501,8 +534,13 @@ def test_ingest_node_reports_findings_excluded_sensors_and_a_failed_event(
     from pier_monitor.bags import write_bag
 
     synthetic, timeline = short_recording(seed=1)
-    bag = tmp_path / "gap.mcap"  # a 2 s gap in one wire during run 2
-    write_bag(drop("l2_wire_n", 2, 0.5, 2.0)(synthetic.recording, timeline), bag, block_s=0.5)
+    bag = tmp_path / "gap.mcap"  # a 2 s gap in every foundation accelerometer during run 2
+
+    def gap(data: np.ndarray, _offsets: np.ndarray, tl: Any) -> None:
+        i = idx(tl.at(2, 0.5))
+        data[i:i + 400] = np.nan
+    fault = edit("l0_acc_ne", gap, "l0_acc_nw", "l0_acc_sw", "l0_acc_se")
+    write_bag(fault(synthetic.recording, timeline), bag, block_s=0.5)
     ingest = start_node(spawn_python, "ingest_node", params_file(tmp_path / "p.yaml", tmp_path))
     player = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/replay_bag.py"),
                           str(bag), "--rate", "8")
@@ -522,17 +560,17 @@ def test_ingest_node_reports_findings_excluded_sensors_and_a_failed_event(
     st = failed_status()
     values = {kv.key: kv.value for kv in st.values}
     assert st.level == b"\x02" and values["status"] == "failed"  # ERROR
-    assert "level 2" in st.message and "l2_wire_n: gap_excluded" in st.message
+    assert "level 0" in st.message and "l0_acc_ne: gap_excluded" in st.message
     status = listener.ingest_values()
     assert status["events_failed"] == "1" and status["failed_events"] == values["event_id"]
-    assert "l2_wire_n" in status["excluded_sensors"].split(",")
+    assert "l0_acc_ne" in status["excluded_sensors"].split(",")
     assert int(status["findings"]) >= 1
     main = next(s for a in reversed(listener.status) for s in a.status
                 if s.name.endswith("/ingest"))
-    assert main.level == b"\x01" and "excluded: " in main.message and "l2_wire_n" in main.message
+    assert main.level == b"\x01" and "excluded: " in main.message and "l0_acc_ne" in main.message
     assert len(list((tmp_path / "windows").glob("*.npz"))) == 1  # run 1 is not lost
     assert interrupt(ingest) == 0
-    assert f"event {values['event_id']}: failed, no window: level 2" in "\n".join(
+    assert f"event {values['event_id']}: failed, no window: level 0" in "\n".join(
         ingest.read_rest())
 
 

@@ -115,13 +115,7 @@ def test_stream_of_blocks_gives_the_same_windows(synthetic, ingested):
     assert [o.status for o in stream.report.outcomes] == ["ingested", "ingested"]
 
 
-def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested):
-    rec = synthetic.recording
-    r = rec.sensors["l2_wire_n"]
-    keep = (r.time_ns < synthetic.truth.runs[1].window_start_ns + 5 * 10**9) | (
-        r.time_ns >= synthetic.truth.runs[1].window_start_ns + 7 * 10**9)  # 2 s gap in run 2
-    bad = with_sensor(rec, "l2_wire_n", time_ns=r.time_ns[keep], data=r.data[keep],
-                      sample_index=r.sample_index[keep])
+def _stream(rec, bad):
     stream = StreamIngest(rec.config)
     for t_ns, config in rec.config_updates:
         stream.update_config(config, t_ns)
@@ -131,15 +125,42 @@ def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested
             sel = slice(np.searchsorted(s.time_ns, rec.start_ns + b0 * 5_000_000),
                         np.searchsorted(s.time_ns, rec.start_ns + (b0 + 400) * 5_000_000))
             got += stream.push(sid, s.time_ns[sel], s.data[sel], s.sample_index[sel])
-    got += stream.flush()
+    return got + stream.flush(), stream
+
+
+def _gap_in_run2(synthetic, rec, sensor_ids):
+    """``rec`` with 2 s of ``sensor_ids`` missing in run 2."""
+    start = synthetic.truth.runs[1].window_start_ns
+    for sid in sensor_ids:
+        r = rec.sensors[sid]
+        keep = (r.time_ns < start + 5 * 10**9) | (r.time_ns >= start + 7 * 10**9)
+        rec = with_sensor(rec, sid, time_ns=r.time_ns[keep], data=r.data[keep],
+                          sample_index=r.sample_index[keep])
+    return rec
+
+
+def test_stream_hands_on_a_failed_event_and_keeps_the_others(synthetic, ingested):
+    rec = synthetic.recording
+    foundation = [s.sensor_id for s in rec.config.sensors_at(0, "acceleration")]
+    got, stream = _stream(rec, _gap_in_run2(synthetic, rec, foundation))
     outcomes = stream.report.outcomes
     assert [o.status for o in outcomes] == ["ingested", "failed"]
     assert got == [outcomes[0].window]
     np.testing.assert_array_equal(got[0].x, ingested[0][0].x)
-    assert outcomes[1].failure.startswith("level 2: the usable displacement channels "
-                                          "(l2_wire_w.x) all point one way")
-    assert "l2_wire_n: gap_excluded (400 missing samples (2.00 s)" in outcomes[1].failure
+    assert outcomes[1].failure.startswith("level 0: no usable acceleration sensor")
     assert "gap_excluded" in [f.code for f in stream.report.findings]
+
+
+def test_stream_carries_on_with_a_level_whose_wires_failed(synthetic, ingested):
+    rec = synthetic.recording
+    got, stream = _stream(rec, _gap_in_run2(synthetic, rec, ["l2_wire_n"]))
+    outcomes = stream.report.outcomes
+    assert [o.status for o in outcomes] == ["ingested", "ingested"]
+    assert got[0] == ingested[0][0]
+    # run 2: level 2 keeps one wire, which cannot give both directions: unmeasured there
+    assert got[1].coverage.displacement.tolist() == [True, False, True, True]
+    np.testing.assert_array_equal(got[1].a, ingested[0][1].a)
+    assert "unmeasured_level" in [f.code for f in stream.report.findings]
 
 
 def test_stream_waits_for_a_lagging_sensor_but_not_for_a_silent_one(synthetic, ingested):
@@ -166,17 +187,18 @@ def test_stream_waits_for_a_lagging_sensor_but_not_for_a_silent_one(synthetic, i
         stream.update_config(config, t_ns)
     whole, _ = ingested
     assert feed(stream) == (whole, 2)  # every field: the lagging wire was waited for
-    # the wire falls silent in run 2: the event goes on without waiting for ever, and fails
-    # naming it (a wire has no second wire in its direction)
+    # the wire falls silent in run 2: the event goes on without waiting for ever; its level
+    # keeps one wire, which cannot give both directions: displacement unmeasured there
     silent = StreamIngest(rec.config, max_lag_s=20.0)
     for t_ns, config in rec.config_updates:
         silent.update_config(config, t_ns)
     stop = int(np.searchsorted(rec.sensors["l2_wire_n"].time_ns,
                                synthetic.truth.runs[1].window_start_ns + 5 * 10**9))
     got, handed_on = feed(silent, stop_at=stop)
-    assert got == whole[:1] and handed_on == 2  # before the end of the stream
-    assert [o.status for o in silent.report.outcomes] == ["ingested", "failed"]
-    assert "l2_wire_n: no_data" in silent.report.outcomes[1].failure
+    assert got[0] == whole[0] and handed_on == 2  # before the end of the stream
+    assert [o.status for o in silent.report.outcomes] == ["ingested", "ingested"]
+    assert got[1].coverage.displacement.tolist() == [True, False, True, True]
+    assert "unmeasured_level" in [f.code for f in silent.report.findings]
 
 
 def test_stream_accounts_for_gaps_duplicates_and_samples_without_index(synthetic):
@@ -314,17 +336,29 @@ def test_missing_and_unmapped_sensors_are_reported(synthetic):
     assert len(windows) == 2
 
 
-def test_level_without_usable_sensor_fails_its_events_naming_the_sensors(synthetic):
+def test_level_without_displacement_sensor_is_reported_unmeasured(synthetic):
     rec = synthetic.recording
     sensors = {k: v for k, v in rec.sensors.items()
                if not (rec.config.sensor(k).level == 2 and rec.config.sensor(k).kind == "displacement")}
     windows, report = ingest_recording(Recording(rec.config, sensors))
+    assert len(windows) == 2
+    assert "unmeasured_level" in report.codes("level 2")
+    for w in windows:
+        assert w.coverage.acceleration.all()
+        assert w.coverage.displacement.tolist() == [True, False, True, True]
+        assert w.coverage.highpass_hz > 0 and np.isnan(w.noise.x[1])
+        assert np.isfinite(w.x).all()  # level 2: integrated from its acceleration
+
+
+def test_nothing_measured_above_the_foundation_fails_the_events_naming_it(synthetic):
+    rec = synthetic.recording
+    sensors = {k: v for k, v in rec.sensors.items() if rec.config.sensor(k).level == 0}
+    windows, report = ingest_recording(Recording(rec.config, sensors))
     assert windows == []
     assert [o.status for o in report.outcomes] == ["failed", "failed"]
     for o in report.outcomes:
-        assert o.failure.startswith("level 2: no usable displacement sensor during ")
-        assert "l2_wire_n: no samples at all" in o.failure
-        assert "l2_wire_w: no samples at all" in o.failure
+        assert "no usable acceleration or displacement sensor at any level above the " \
+               "foundation" in o.failure
 
 
 def test_rate_contradicting_the_configuration_is_reported(synthetic):
@@ -333,3 +367,27 @@ def test_rate_contradicting_the_configuration_is_reported(synthetic):
     windows, report = ingest_recording(modified)
     assert "rate_mismatch" in report.codes("l1_acc_n")
     assert len(windows) == 2
+
+
+def test_field_layouts_give_windows_with_their_coverage_and_gnss_at_its_own_rate():
+    """Accelerometers only (plus a 10 Hz GNSS at the top): every level's acceleration, the top's
+    displacement from the GNSS fused with its acceleration; the stream gives the same window."""
+    from pier_monitor.core.synthetic.field import field_case_recording
+
+    rec = field_case_recording("edefense", "accel", True, "strong", 0).recording
+    windows, report = ingest_recording(rec)
+    assert [o.status for o in report.outcomes] == ["ingested"]
+    (w,) = windows
+    assert w.coverage.acceleration.all()
+    assert w.coverage.displacement.tolist() == [False, False, False, True]
+    assert 0 < w.noise.x[3] < 0.005  # fused: better than the GNSS's 5 mm alone
+    assert "rate_mismatch" not in report.codes()
+    stream = StreamIngest(rec.config)
+    got = []
+    for b0 in range(0, max(s.n_samples for s in rec.sensors.values()) + 400, 400):
+        for sid, s in rec.sensors.items():
+            sel = slice(np.searchsorted(s.time_ns, rec.start_ns + b0 * 5_000_000),
+                        np.searchsorted(s.time_ns, rec.start_ns + (b0 + 400) * 5_000_000))
+            got += stream.push(sid, s.time_ns[sel], s.data[sel], s.sample_index[sel])
+    got += stream.flush()
+    assert got == windows

@@ -91,11 +91,10 @@ def test_short_training_from_half_the_stiffness_recovers_an_elastic_model(rule):
 def test_update_rules_never_break_their_constraints():
     window, _ = _small_window(moments=True)
     settings = PinnSettings(init="design")
-    problem = _Problem(window, settings, torch.device("cpu"), window.design)
-    net = torch.nn.Module()
-    # Adam rule: projection after arbitrary steps
+    problem = _Problem([window], settings, torch.device("cpu"), window.design)
+    # Adam rule: projection after arbitrary steps, three members at once
     ref = torch.tensor(np.stack([window.design.k1, window.design.k2, window.design.fy,
-                                 window.design.c]))
+                                 window.design.c])).expand(3, 4, -1).clone()
     gen = torch.Generator().manual_seed(0)
     for _ in range(50):
         logp = 3.0 * torch.randn(ref.shape, generator=gen, dtype=torch.float64)
@@ -105,15 +104,15 @@ def test_update_rules_never_break_their_constraints():
         assert torch.all(k1 >= 2 * k2 * (1 - 1e-12))
         assert torch.all(fy <= problem.f_cap * (1 + 1e-12))
     # paper rule: start right on the constraints; a big lr2 tempts every move across them
-    del net
+    ref = ref[0]
     k = torch.stack([ref[0], 0.5 * ref[0], problem.f_cap.clone(), ref[3]])
     free = torch.ones_like(k)
-    tiny = {q: v[:50] for q, v in problem.data0.items()}
+    tiny = {q: v[:, :50] for q, v in problem.data0.items()}
     pairs = PairTensors(tiny["a"], tiny["v"], tiny["x"], tiny["f"],
-                        *(problem.data1[q][:50] for q in ("a", "v", "x", "f")))
+                        *(problem.data1[q][:, :50] for q in ("a", "v", "x", "f")))
     tg = {"a0": pairs.a0, "v0": pairs.v0, "x0": pairs.x0, "f0": pairs.f0, "a1": pairs.a1,
-          "v1": pairs.v1, "x1": pairs.x1, "f1": pairs.f1, "ag0": problem.ag0[:50],
-          "ag1": problem.ag1[:50]}
+          "v1": pairs.v1, "x1": pairs.x1, "f1": pairs.f1, "ag0": problem.ag0[:, :50],
+          "ag1": problem.ag1[:, :50]}
     for _ in range(20):
         k = _paper_rule_step(problem, pairs, tg, k, k, 0.4, free)
         assert torch.all(k > 0)

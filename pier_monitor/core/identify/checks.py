@@ -149,8 +149,11 @@ def _parameter_reasons(params: SpringParameters, window: MeasuredWindow,
 def _misfit_reasons(reproduced: Reproduced, window: MeasuredWindow,
                     lim: CheckLimits) -> list[str]:
     reasons = []
-    measured = {"a": window.coverage.acceleration, "v": window.coverage.motion,
-                "x": window.coverage.motion}
+    # velocities and displacements only where a sensor measured a displacement: elsewhere the
+    # window holds the accelerations integrated above the drift band, which leave out the
+    # plastic offsets that the identification reconstructs
+    measured = {"a": window.coverage.acceleration, "v": window.coverage.displacement,
+                "x": window.coverage.displacement}
     names = {"a": "acceleration", "v": "velocity", "x": "displacement"}
     for q, covered in measured.items():
         meas = getattr(window, q)

@@ -31,7 +31,8 @@ from pier_monitor.core.model.config import PierGeometry, SpringParameters
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.model.link_model import angle_matrix, check_response_array
 
-__all__ = ["SpringFit", "EquationErrorFit", "inertia_moments", "fit_equation_error", "yield_test"]
+__all__ = ["SpringFit", "EquationErrorFit", "inertia_moments", "fit_equation_error", "yield_test",
+           "robust_increments"]
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,7 @@ def _hyst_residual(f: np.ndarray, th: np.ndarray, k1: float, k2: float, fy: floa
     return f[1:] - np.clip(trial, k2 * th[1:] - s, k2 * th[1:] + s)
 
 
-def _robust_increments(df: np.ndarray, cols: np.ndarray, n_iter: int = 10,
+def robust_increments(df: np.ndarray, cols: np.ndarray, n_iter: int = 10,
                        rows: np.ndarray | None = None) -> np.ndarray:
     """Robust least squares of ``df ≈ cols @ p`` (``cols`` of 1 or 2 columns).
 
@@ -205,7 +206,7 @@ def _fit_one(theta: np.ndarray, g: np.ndarray, theta_dot: np.ndarray, f_meas: np
         c = float(np.clip(np.dot(theta_dot, g - f_meas) / max(np.dot(theta_dot, theta_dot),
                                                                 1e-300), 0.0, None))
         unloading = f_meas[:-1] * np.diff(f_meas) < 0  # moving back towards zero: elastic
-        k1 = float(_robust_increments(np.diff(f_meas), np.diff(theta)[:, None],
+        k1 = float(robust_increments(np.diff(f_meas), np.diff(theta)[:, None],
                                       rows=unloading)[0])
 
         def moments(c_: float) -> np.ndarray:
@@ -213,7 +214,7 @@ def _fit_one(theta: np.ndarray, g: np.ndarray, theta_dot: np.ndarray, f_meas: np
     else:
         cols = np.column_stack([np.diff(theta), np.diff(theta_dot)])
         unloading = g[:-1] * np.diff(g) < 0
-        k1, c = (float(v) for v in _robust_increments(np.diff(g), cols, rows=unloading))
+        k1, c = (float(v) for v in robust_increments(np.diff(g), cols, rows=unloading))
         c = max(c, 0.0)
 
         def moments(c_: float) -> np.ndarray:

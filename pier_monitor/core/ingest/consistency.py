@@ -1,15 +1,17 @@
 """Checks of each sensor against the other sensors of its level.
 
 A level's accelerometers see one rigid motion, each along its own axes, so that any one
-horizontal channel is predicted by the others (least squares, leaving it out).  A channel
+horizontal channel is predicted by the others (least squares, leaving it out), once each
+channel's offset over the second (its median: a bias, or gravity leaking through a tilt the
+configuration does not know) is taken out.  A channel
 that departs from that prediction
 
 * on single samples or short bursts, beyond ``glitch_threshold`` times the local spread and
   ``glitch_rel`` of the prediction, has a glitch: those samples become missing (and are
   interpolated when short);
-* over whole seconds, by more than ``disagree_rel`` of the signal and well beyond its noise
-  (a wrong gain, a reversed sign, a loose mount), disagrees: it is excluded over those
-  seconds, not the level.
+* over whole seconds, by more than ``disagree_rel`` of the level's motion and well beyond
+  its noise (a wrong gain, a reversed sign, a loose mount), disagrees: it is excluded over
+  those seconds, not the level.
 
 A displacement sensor has no such neighbours (two wires per level give the two horizontal
 components and nothing to spare), so each event compares it with its level's relative
@@ -143,9 +145,14 @@ def check_accelerometers(cleaned: list[CleanSensor], starts: np.ndarray,
         base = np.stack([c.sensor.usable[:, c.column] for c in chans], axis=1) & np.isfinite(m)
         e = np.array([c.direction for c in chans])
         sigma = np.array([_noise_si(c) for c in chans])
+        block_of = np.searchsorted(starts, np.arange(m.shape[0]), side="right") - 1
+        # compare the motion, not the offsets: a bias or a tilt that leaks gravity into a
+        # horizontal channel is a constant the configuration may not know, and the ingest
+        # removes it before an event; each channel's median of the second is taken out
+        dc = block_median(np.where(base, m, np.nan), starts)
+        m = m - np.nan_to_num(dc)[block_of]
         excluded = _disagreeing_seconds(m, e, base, sigma, starts, settings)
         _exclude_seconds(chans, excluded, starts, level, report)
-        block_of = np.searchsorted(starts, np.arange(m.shape[0]), side="right") - 1
         _mark_glitches(chans, m, e, base & ~excluded[0][block_of], sigma, starts, level,
                        settings)
 
@@ -159,12 +166,19 @@ def _disagreeing_seconds(m: np.ndarray, e: np.ndarray, base: np.ndarray, sigma: 
     block_of = np.searchsorted(starts, np.arange(m.shape[0]), side="right") - 1
     excluded = np.zeros((nb, m.shape[1]), dtype=bool)
     share = np.zeros((nb, m.shape[1]))
+    lengths = np.diff(np.append(starts, m.shape[0]))
+    short = lengths < 0.5 * lengths.max()
     for _ in range(_PASSES):
         res, pred = leave_one_out(m, e, base & ~excluded[block_of])
         med_r = block_median(np.abs(res), starts)
-        med_p = block_median(np.abs(pred), starts)
+        # against the level's motion, not the channel's own share of it: a half-degree
+        # misalignment leaks about 1 % of the motion across, which is a large share of a
+        # channel that lies across the shaking
+        largest = np.max(np.where(np.isfinite(pred), np.abs(pred), -1.0), axis=1)
+        med_p = block_median(np.where(largest >= 0, largest, np.nan), starts)[:, None]
         with np.errstate(invalid="ignore", divide="ignore"):
             ratio = med_r / med_p
+        ratio[short] = np.nan  # a stub of a second at the end says nothing
         # a median |residual| of 3 sigma is far beyond noise (noise alone gives ~0.8 sigma)
         bad = (ratio > settings.disagree_rel) & (med_r > 3.0 * sigma) & ~excluded
         bad &= np.isfinite(ratio)
@@ -230,15 +244,19 @@ def _mark_glitches(chans: list[HorizontalChannel], m: np.ndarray, e: np.ndarray,
 
 
 def check_displacement(cleaned: list[CleanSensor], level: int, sl: slice,
-                       a_rel_xy: np.ndarray, rate_hz: float, settings: IngestSettings
-                       ) -> list[tuple[HorizontalChannel, float]]:
+                       a_rel_xy: np.ndarray, ag_xy: np.ndarray, rate_hz: float,
+                       settings: IngestSettings) -> list[tuple[HorizontalChannel, float]]:
     """Displacement channels of a level that disagree with its relative acceleration.
 
     Over ``sl`` (an event and its context), each displacement channel usable there and the
     level's relative acceleration ``a_rel_xy`` (T, 2) integrated twice are compared in the
-    band 0.2-10 Hz (tapered, detrended).  Returns ``[(channel, share), ...]`` for the channels
-    whose residual exceeds ``disagree_rel`` of the predicted motion and five times their
-    noise.
+    band 0.2-10 Hz (tapered, detrended).  The accelerometers' gains are known to about a per
+    cent, and a gain mismatch between the level's and the foundation's turns a per cent of
+    the ground's displacement into apparent relative motion (large under a strong shaking,
+    for a stiff level): the comparison first removes the best such mismatch (within
+    ``5 × gain_rel``), using the foundation acceleration ``ag_xy`` (T, 2).  Returns
+    ``[(channel, share), ...]`` for the channels whose residual exceeds ``disagree_rel`` of
+    the predicted motion and five times their noise.
     """
     chans = [c for c in horizontal_channels(cleaned, "displacement", level)
              if c.sensor.usable[sl, c.column].all()]
@@ -249,13 +267,27 @@ def check_displacement(cleaned: list[CleanSensor], level: int, sl: slice,
     f = np.fft.rfftfreq(n, 1.0 / rate_hz)
     band = (f >= _BAND_HZ[0]) & (f <= min(_BAND_HZ[1], 0.4 * rate_hz))
     w2 = (2.0 * np.pi * f[band]) ** 2
-    acc = np.fft.rfft(signal.detrend(a_rel_xy, axis=0) * taper[:, None], axis=0)[band]
-    disp_xy = -acc / w2[:, None]
+
+    def displacement(acc_xy: np.ndarray) -> np.ndarray:
+        spec = np.fft.rfft(signal.detrend(acc_xy, axis=0) * taper[:, None], axis=0)[band]
+        return -spec / w2[:, None]
+
+    disp_xy = displacement(a_rel_xy)
+    ground_xy = displacement(ag_xy)
+    bound = 5.0 * settings.gain_rel
     out = []
     for ch in chans:
         x = ch.sensor.values[sl, ch.column]
+        if not np.isfinite(x).all():
+            continue  # a slower sensor (GNSS): it is fused, not judged here
         meas = np.fft.rfft(signal.detrend(x) * taper)[band]
         pred = disp_xy @ ch.direction
+        # gains: (1 + e_l) of the level's absolute motion, (1 + e_0) of the foundation's
+        cols = np.stack([pred, ground_xy @ ch.direction], axis=1)
+        real = lambda z: np.concatenate([z.real, z.imag])
+        coef = np.linalg.lstsq(np.column_stack([real(cols[:, 0]), real(cols[:, 1])]),
+                               real(meas - pred), rcond=None)[0]
+        pred = pred + cols @ np.clip(coef, -bound, bound)
         res_energy = float(np.sum(np.abs(meas - pred) ** 2))
         share = np.sqrt(res_energy / max(float(np.sum(np.abs(pred) ** 2)), 1e-300))
         res_rms = np.sqrt(2.0 * res_energy) / n  # Parseval, one-sided spectrum

@@ -80,8 +80,11 @@ def _kalman_rts(a, z, h, sigma_a, sigma_x, q, smooth):  # pragma: no cover - com
     pp00 = np.empty(n)
     pp01 = np.empty(n)
     pp11 = np.empty(n)
-    # initial state: at the first wire reading, velocity unknown
-    x, v = z[0], 0.0
+    # initial state: at the first displacement reading, velocity unknown
+    first = 0
+    while first < n - 1 and np.isnan(z[first]):
+        first += 1
+    x, v = z[first], 0.0
     c00, c01, c11 = r, 0.0, 1.0
     loglik = 0.0
     vdx = np.zeros(n)
@@ -96,17 +99,20 @@ def _kalman_rts(a, z, h, sigma_a, sigma_x, q, smooth):  # pragma: no cover - com
         else:
             xp, vp, d00, d01, d11 = x, v, c00, c01, c11
         px[k], pv[k], pp00[k], pp01[k], pp11[k] = xp, vp, d00, d01, d11
-        s = d00 + r
-        innov = z[k] - xp
-        if k > 0:
-            loglik += -0.5 * (np.log(2.0 * np.pi * s) + innov * innov / s)
-        k0 = d00 / s
-        k1 = d01 / s
-        x = xp + k0 * innov
-        v = vp + k1 * innov
-        c00 = (1.0 - k0) * d00
-        c01 = (1.0 - k0) * d01
-        c11 = d11 - k1 * d01
+        if np.isnan(z[k]):  # no displacement reading at this sample (a slower sensor)
+            x, v, c00, c01, c11 = xp, vp, d00, d01, d11
+        else:
+            s = d00 + r
+            innov = z[k] - xp
+            if k > 0:
+                loglik += -0.5 * (np.log(2.0 * np.pi * s) + innov * innov / s)
+            k0 = d00 / s
+            k1 = d01 / s
+            x = xp + k0 * innov
+            v = vp + k1 * innov
+            c00 = (1.0 - k0) * d00
+            c01 = (1.0 - k0) * d01
+            c11 = d11 - k1 * d01
         mx[k], mv[k], p00[k], p01[k], p11[k] = x, v, c00, c01, c11
     if smooth:
         for k in range(n - 2, -1, -1):
@@ -154,7 +160,8 @@ def fuse_acceleration_displacement(acc: np.ndarray, disp: np.ndarray, rate_hz: f
     acc : ndarray, shape (T, C)
         Relative acceleration of each channel, m/s².
     disp : ndarray, shape (T, C)
-        Relative displacement of the same channels (wire transducers), m.
+        Relative displacement of the same channels (wire transducers, GNSS), m; NaN where
+        a slower sensor has no reading.
     rate_hz : float
         Sampling rate of both, Hz.
     sigma_acc, sigma_disp : float or ndarray of shape (C,)
@@ -171,8 +178,10 @@ def fuse_acceleration_displacement(acc: np.ndarray, disp: np.ndarray, rate_hz: f
     if acc.ndim != 2 or acc.shape != disp.shape or acc.shape[0] < 10:
         raise InputDataError(f"acc and disp: expected equal shapes (T >= 10, C), got {acc.shape} "
                              f"and {disp.shape}")
-    if not (np.all(np.isfinite(acc)) and np.all(np.isfinite(disp))):
-        raise InputDataError("acc and disp: non-finite samples must be handled before fusion")
+    if not (np.all(np.isfinite(acc)) and not np.any(np.isinf(disp))
+            and np.isfinite(disp).any(axis=0).all()):
+        raise InputDataError("acc and disp: non-finite samples must be handled before fusion "
+                             "(disp may be NaN where a slower sensor has no reading)")
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise InputDataError(f"rate_hz: expected a positive rate, got {rate_hz}")
     n_ch = acc.shape[1]

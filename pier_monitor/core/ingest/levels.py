@@ -99,7 +99,16 @@ def level_motion(cleaned: list[CleanSensor], kind: str, level: int, sl: slice,
     m = np.stack([c.sensor.values[sl, c.column] for c in chans], axis=1)  # (T, C)
     if counts is not None:
         counts[f"{kind}.{level}"] = len(chans)
-    return m @ np.linalg.pinv(e).T
+    sampled = np.isfinite(m)
+    if sampled.all():
+        return m @ np.linalg.pinv(e).T
+    # a slower sensor (GNSS) reads only every few samples: each sample from the channels
+    # that read it, NaN where they do not span both directions
+    out = np.full((m.shape[0], 2), np.nan)
+    for rows, cols in availability_patterns(sampled):
+        if np.linalg.matrix_rank(e[cols], tol=1e-6) == 2:
+            out[rows] = m[rows][:, cols] @ np.linalg.pinv(e[cols]).T
+    return out
 
 
 def level_motion_partial(cleaned: list[CleanSensor], kind: str, level: int,

@@ -9,6 +9,8 @@ level, then :func:`~pier_monitor.core.ingest.clean.bridge_gaps`.
 
 from __future__ import annotations
 
+import numpy as np
+
 from pier_monitor.core.ingest.clean import (CleanSensor, block_starts, bridge_gaps, clean_sensor,
                                             data_rate_hz, rate_problem)
 from pier_monitor.core.ingest.consistency import check_accelerometers, check_units
@@ -30,7 +32,9 @@ def _check_rates(recording: Recording) -> None:
     """An :class:`IngestError` when every sensor contradicts the configured rate."""
     rate = recording.config.sample_rate_hz
     with_samples = [r for r in recording.sensors.values() if r.n_samples]
-    problems = {r.sensor_id: rate_problem(r, rate) for r in with_samples}
+    config = recording.config
+    problems = {r.sensor_id: rate_problem(r, config.sensor_rate_hz(config.sensor(r.sensor_id)))
+                for r in with_samples}
     if with_samples and all(problems.values()):
         own = sorted({round(data_rate_hz(r) or r.rate_hz, 3) for r in with_samples})
         declared = sorted({r.rate_hz for r in with_samples})
@@ -66,7 +70,15 @@ def clean_recording(recording: Recording, settings: IngestSettings, report: Inge
     _check_rates(recording)
     cleaned = []
     for sid, rec in recording.sensors.items():
-        cs = clean_sensor(config.sensor(sid), rec, t0, n, rate, settings, report)
+        spec = config.sensor(sid)
+        own = config.sensor_rate_hz(spec)
+        if own == rate:
+            cs = clean_sensor(spec, rec, t0, n, rate, settings, report)
+        else:  # a slower sensor (GNSS): cleaned at its own rate, then put on the grid
+            every = int(round(rate / own))
+            cs = clean_sensor(spec, rec, t0, (n - 1) // every + 1, own, settings, report)
+            bridge_gaps(cs, settings, report)
+            cs = _on_grid(cs, every, n, rate)
         _report_silence(cs, rec, t_end, report)
         cleaned.append(cs)
     check_units(cleaned, report)
@@ -74,6 +86,18 @@ def clean_recording(recording: Recording, settings: IngestSettings, report: Inge
     for cs in cleaned:
         bridge_gaps(cs, settings, report)
     return cleaned, t0, n, rate
+
+
+def _on_grid(cs: CleanSensor, every: int, n: int, rate_hz: float) -> CleanSensor:
+    """A sensor cleaned at its own (slower) rate on the recording's grid: its samples at
+    every ``every``-th grid sample, NaN between them (not sampled, not missing: no flag),
+    usable where its own samples are."""
+    n_axes = cs.values.shape[1]
+    values = np.full((n, n_axes), np.nan)
+    values[::every] = cs.values[:values[::every].shape[0]]
+    usable = np.repeat(cs.usable, every, axis=0)[:n]
+    flags = np.zeros((n, n_axes), dtype=np.int8)
+    return CleanSensor(cs.spec, cs.t0_ns, rate_hz, values, usable, flags)
 
 
 def _report_silence(cs: CleanSensor, rec: SensorRecord, t_end: int,

@@ -72,6 +72,13 @@ class IngestSettings:
         Data kept on each side of the window for bias removal and fusion, s.
     principal_direction_deg : float or None
         Overrides the configuration's direction; None = configuration, else estimate.
+    highpass_hz : float
+        Levels with accelerometers but no displacement sensor get velocities and
+        displacements integrated from their acceleration, high-passed at this frequency
+        (their content below it is not measured), Hz.
+    gain_rel : float
+        Relative 1-sigma uncertainty of the sensors' gains that the configuration does not
+        state (field sensors: about 1 %); carried to the identifier in the noise model.
     glitch_threshold : float
         A sample is a glitch when it departs from what its neighbours predict by more than
         this many robust standard deviations (local, per second of data, never below the
@@ -103,6 +110,8 @@ class IngestSettings:
     pad_s: float = 2.0
     context_s: float = 10.0
     principal_direction_deg: float | None = None
+    highpass_hz: float = 0.05
+    gain_rel: float = 0.01
     glitch_threshold: float = 10.0
     glitch_rel: float = 0.2
     glitch_max_s: float = 1.0

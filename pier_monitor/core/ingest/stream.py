@@ -157,7 +157,8 @@ class StreamIngest:
         data = data.reshape(time_ns.size, n_axes)
         if sample_index is None:
             first = self._first_ns.setdefault(sensor_id, int(time_ns[0]) if time_ns.size else 0)
-            sample_index = np.rint((time_ns - first) * (self.rate / NS_PER_S)).astype(np.int64)
+            rate = self.config.sensor_rate_hz(self.config.sensor(sensor_id))
+            sample_index = np.rint((time_ns - first) * (rate / NS_PER_S)).astype(np.int64)
         sample_index = np.asarray(sample_index, dtype=np.int64).reshape(-1)
         self._account(sensor_id, time_ns, sample_index)
         self._buf.setdefault(sensor_id, []).append((time_ns, data, sample_index))
@@ -211,7 +212,8 @@ class StreamIngest:
             if not blocks or (only is not None and sid not in only):
                 continue
             sensors[sid] = SensorRecord(sid, np.concatenate([b[0] for b in blocks]),
-                                        np.concatenate([b[1] for b in blocks]), self.rate,
+                                        np.concatenate([b[1] for b in blocks]),
+                                        self.config.sensor_rate_hz(self.config.sensor(sid)),
                                         np.concatenate([b[2] for b in blocks]))
         return Recording(self.config, sensors, source="stream",
                          config_updates=self._history.config_updates)

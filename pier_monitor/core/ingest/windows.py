@@ -26,7 +26,8 @@ from pier_monitor.core.ingest.recording import NS_PER_S, Recording
 from pier_monitor.core.ingest.settings import (EventIngest, IngestError, IngestReport,
                                                IngestSettings, LevelUnusableError, fmt_span,
                                                fmt_time)
-from pier_monitor.core.ingest.window import MeasuredWindow, NoiseModel
+from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
+from pier_monitor.core.numerics import cumulative_trapezoid
 
 __all__ = ["ingest_recording"]
 
@@ -55,75 +56,124 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
     # accelerometer bias: the quiet lead-in before the window
     lead = slice(0, max(1, w0 - c0 - int(round(settings.pad_s * rate))))
     ag = ag - ag[lead].mean()
-    a_rel = np.empty((c1 - c0, n_lv))
-    x_rel = np.empty((c1 - c0, n_lv))
+    a_rel = np.full((c1 - c0, n_lv), np.nan)
+    x_rel = np.full((c1 - c0, n_lv), np.nan)
     for lv in range(1, n_lv + 1):
-        a_xy = level_motion(cleaned, "acceleration", lv, sl, True, counts)
-        a_abs = a_xy @ e_p
-        a_abs = a_abs - a_abs[lead].mean()
-        a_rel[:, lv - 1] = a_abs - ag
-        wires = _without_disagreeing_wires(cleaned, lv, sl, a_xy - ag_xy, rate, settings,
-                                           report)
-        wire = level_motion(wires, "displacement", lv, sl, True, counts) @ e_p
-        x_rel[:, lv - 1] = wire - wire[lead].mean()
+        a_xy = level_motion(cleaned, "acceleration", lv, sl, False, counts)
+        wires = cleaned
+        if a_xy is not None:
+            a_abs = a_xy @ e_p
+            a_rel[:, lv - 1] = a_abs - a_abs[lead].mean() - ag
+            wires = _without_disagreeing_wires(cleaned, lv, sl, a_xy - ag_xy, ag_xy, rate,
+                                               settings, report)
+        wire = level_motion(wires, "displacement", lv, sl, False, counts)
+        if wire is not None:
+            wire = wire @ e_p
+            x_rel[:, lv - 1] = wire - np.nanmean(wire[lead])
+    has_a = np.isfinite(a_rel).all(axis=0)
+    has_x = np.isfinite(x_rel).any(axis=0)
+    if not (has_a | has_x).any():
+        raise IngestError(f"{event_id}: no usable acceleration or displacement sensor at any "
+                          f"level above the foundation (levels 1-{n_lv}); nothing to identify")
+    t_lo = t0 + int(round(c0 * NS_PER_S / rate))
+    t_hi = t0 + int(round((c1 - 1) * NS_PER_S / rate))
+    for lv in np.flatnonzero(~(has_a & has_x)) + 1:
+        what = ("no usable sensor" if not (has_a[lv - 1] or has_x[lv - 1]) else
+                "no usable displacement sensor" if has_a[lv - 1] else
+                "no usable accelerometer")
+        report.add("unmeasured_level", f"level {lv}", f"{event_id}: {what} during "
+                   f"{fmt_span(t_lo, t_hi)}; its motion is reconstructed by the identifier",
+                   t_lo, t_hi, "noted")
     sig_a = np.array([math.hypot(level_noise_si(config, "acceleration", lv),
                                  level_noise_si(config, "acceleration", 0))
                       for lv in range(1, n_lv + 1)])
     sig_x = np.array([level_noise_si(config, "displacement", lv) for lv in range(1, n_lv + 1)])
     sig_a = np.where(np.isfinite(sig_a) & (sig_a > 0), sig_a, 1e-3)
     sig_x = np.where(np.isfinite(sig_x) & (sig_x > 0), sig_x, 1e-4)
-    fused = fuse_acceleration_displacement(a_rel, x_rel, rate, sig_a, sig_x)
+    factor = int(round(rate / settings.output_rate_hz))
+    if factor < 1 or abs(factor * settings.output_rate_hz - rate) > 1e-6 * rate:
+        raise IngestError(f"output_rate_hz {settings.output_rate_hz:g} must divide the sensor rate "
+                          f"{rate:g} Hz")
+    both = has_a & has_x
+    fused = None
+    v_rel = np.full_like(a_rel, np.nan)
+    x_out = np.full_like(a_rel, np.nan)
+    nan = np.full(n_lv, np.nan)
+    x_sigma, v_sigma, dx_sigma, dv_sigma = nan.copy(), nan.copy(), nan.copy(), nan.copy()
+    inner = slice(w0 - c0, w1 - c0)
+    if both.any():
+        fused = fuse_acceleration_displacement(a_rel[:, both], x_rel[:, both], rate,
+                                               sig_a[both], sig_x[both])
+        v_rel[:, both], x_out[:, both] = fused.v, fused.x
+        x_sigma[both] = fused.x_sigma[inner].mean(axis=0)
+        v_sigma[both] = fused.v_sigma[inner].mean(axis=0)
+        # increments over one output step (factor sensor steps)
+        dx_sigma[both] = np.sqrt(factor * np.mean(fused.dx_sigma[inner] ** 2, axis=0))
+        dv_sigma[both] = np.sqrt(factor * np.mean(fused.dv_sigma[inner] ** 2, axis=0))
+    only_a = has_a & ~has_x
+    if only_a.any():  # integrals of the acceleration, above highpass_hz only
+        v_rel[:, only_a], x_out[:, only_a] = _integrate_highpass(a_rel[:, only_a], rate,
+                                                                 settings.highpass_hz)
+    only_x = has_x & ~has_a
+    if only_x.any():
+        x_out[:, only_x] = x_rel[:, only_x]
+        v_rel[:, only_x] = np.gradient(x_rel[:, only_x], 1.0 / rate, axis=0)
+        x_sigma[only_x] = sig_x[only_x]
     # velocity meters: relative velocity of a level = level meter − foundation meter
     v0_xy = level_motion(cleaned, "velocity", 0, sl, False, counts)
     checks = {}
     if v0_xy is not None:
         for lv in range(1, n_lv + 1):
             v_xy = level_motion(cleaned, "velocity", lv, sl, False, counts)
-            if v_xy is None:
+            if v_xy is None or not both[lv - 1]:
                 continue
-            v_rel = (v_xy - v0_xy) @ e_p
-            inner = slice(w0 - c0, w1 - c0)
-            d = v_rel[inner] - v_rel[inner].mean() - (fused.v[inner, lv - 1]
-                                                      - fused.v[inner, lv - 1].mean())
+            meter = (v_xy - v0_xy) @ e_p
+            d = meter[inner] - meter[inner].mean() - (v_rel[inner, lv - 1]
+                                                      - v_rel[inner, lv - 1].mean())
             checks[f"level{lv}"] = {
                 "rms_difference_mps": float(np.sqrt(np.mean(d ** 2))),
-                "rms_velocity_mps": float(np.sqrt(np.mean(fused.v[inner, lv - 1] ** 2)))}
+                "rms_velocity_mps": float(np.sqrt(np.mean(v_rel[inner, lv - 1] ** 2)))}
     report.checks.setdefault("velocity_meter", {})[event_id] = checks
-    factor = int(round(rate / settings.output_rate_hz))
-    if factor < 1 or abs(factor * settings.output_rate_hz - rate) > 1e-6 * rate:
-        raise IngestError(f"output_rate_hz {settings.output_rate_hz:g} must divide the sensor rate "
-                          f"{rate:g} Hz")
     # decimated sample k is sensor sample c0 + k·factor; keep those inside [w0, w1)
     k0 = -(-(w0 - c0) // factor)
     k1 = -(-(w1 - c0) // factor)
     dec = {name: _decimate(arr, factor)[k0:k1]
-           for name, arr in (("a", a_rel), ("ag", ag), ("x", fused.x), ("v", fused.v))}
+           for name, arr in (("a", a_rel), ("ag", ag), ("x", x_out), ("v", v_rel))}
     m = min(arr.shape[0] for arr in dec.values())
     start_ns = t0 + int(round((c0 + k0 * factor) * NS_PER_S / rate))
     t = (start_ns - t0) / NS_PER_S + np.arange(m) / settings.output_rate_hz
-    inner = slice(w0 - c0, w1 - c0)
     return MeasuredWindow(
         pier_id=config.pier_id, event_id=event_id, geometry=config.geometry,
         design=config.design, t=t, ag=dec["ag"][:m], a=dec["a"][:m], v=dec["v"][:m],
         x=dec["x"][:m], moments=None,
-        noise=NoiseModel(
-            ag=float(level_noise_si(config, "acceleration", 0)), a=sig_a,
-            v=fused.v_sigma[inner].mean(axis=0), x=fused.x_sigma[inner].mean(axis=0),
-            # increments over one output step (factor sensor steps)
-            dx=np.sqrt(factor * np.mean(fused.dx_sigma[inner] ** 2, axis=0)),
-            dv=np.sqrt(factor * np.mean(fused.dv_sigma[inner] ** 2, axis=0)),
-            f=np.full(n_lv, np.nan)),
+        noise=NoiseModel(ag=float(level_noise_si(config, "acceleration", 0)),
+                         a=np.where(has_a, sig_a, np.nan), v=v_sigma, x=x_sigma, dx=dx_sigma,
+                         dv=dv_sigma, f=nan, gain_rel=settings.gain_rel),
+        coverage=Coverage(has_a, has_x, settings.highpass_hz if only_a.any() else 0.0),
         start_time_ns=start_ns,
-        report={"principal_direction_deg": direction, "fusion_q": fused.q.tolist(),
+        report={"principal_direction_deg": direction,
+                "fusion_q": [] if fused is None else fused.q.tolist(),
                 "velocity_meter_check": checks, "channels": counts})
 
 
+def _integrate_highpass(acc: np.ndarray, rate: float, highpass_hz: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity and displacement (T, C) integrated from acceleration (T, C), each integral
+    high-passed (zero-phase, 2nd order) at ``highpass_hz``: only the band that integration
+    gets right."""
+    sos = signal.butter(2, highpass_hz, btype="highpass", fs=rate, output="sos")
+    v = signal.sosfiltfilt(sos, cumulative_trapezoid(acc, 1.0 / rate), axis=0)
+    x = signal.sosfiltfilt(sos, cumulative_trapezoid(v, 1.0 / rate), axis=0)
+    return v, x
+
+
 def _without_disagreeing_wires(cleaned: list[CleanSensor], level: int, sl: slice,
-                               a_rel_xy: np.ndarray, rate: float, settings: IngestSettings,
-                               report: IngestReport) -> list[CleanSensor]:
+                               a_rel_xy: np.ndarray, ag_xy: np.ndarray, rate: float,
+                               settings: IngestSettings, report: IngestReport
+                               ) -> list[CleanSensor]:
     """``cleaned`` with the displacement channels of a level that disagree with its
     acceleration over ``sl`` made unusable there (copies; the originals stay as they are)."""
-    flagged = check_displacement(cleaned, level, sl, a_rel_xy, rate, settings)
+    flagged = check_displacement(cleaned, level, sl, a_rel_xy, ag_xy, rate, settings)
     if not flagged:
         return cleaned
     out = list(cleaned)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import linalg
 
+from pier_monitor.core._jit import jit
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
 
@@ -27,6 +28,8 @@ __all__ = [
     "estimated_moments",
     "bilinear_step",
     "check_response_array",
+    "inverse_bilinear",
+    "damped_bilinear",
 ]
 
 
@@ -132,3 +135,115 @@ def bilinear_step(f_prev: np.ndarray, theta_prev: np.ndarray, theta: np.ndarray,
     s = fy * (1.0 - k2 / k1)
     trial = f_prev + k1 * (theta - theta_prev)
     return np.clip(trial, k2 * theta - s, k2 * theta + s)
+
+
+@jit
+def _inverse_bilinear_kernel(f, k1, k2, fy, theta0, out):  # pragma: no cover - compiled
+    s = fy * (1.0 - k2 / k1)
+    out[0] = theta0
+    for i in range(f.size - 1):
+        elastic = out[i] + (f[i + 1] - f[i]) / k1
+        if f[i + 1] > k2 * elastic + s:
+            out[i + 1] = (f[i + 1] - s) / k2
+        elif f[i + 1] < k2 * elastic - s:
+            out[i + 1] = (f[i + 1] + s) / k2
+        else:
+            out[i + 1] = elastic
+
+
+def inverse_bilinear(f: np.ndarray, k1: float, k2: float, fy: float,
+                     theta0: float = 0.0) -> np.ndarray:
+    """The angle history of one bilinear kinematic-hardening spring driven by its moment.
+
+    The inverse of :func:`bilinear_step`: from ``θ_i`` and the moments ``f_i, f_{i+1}``
+    (N·m), the elastic step ``θ_i + (f_{i+1} − f_i)/k1`` holds while the point stays between
+    the skeleton lines ``k2 θ ± s``; beyond them the spring is on a yield line,
+    ``θ = (f ∓ s)/k2``.  Unique for ``0 < k2 < k1``, and stable: moment noise does not
+    accumulate, because every angle is tied to the current moment and the last reversal.
+
+    Parameters
+    ----------
+    f : ndarray, shape (T,)
+        Moment history, N·m, starting where the angle is ``theta0``.
+    k1, k2, fy : float
+        Elastic stiffness, second stiffness (N·m/rad) and yield moment (N·m).
+    theta0 : float
+        Angle at the first sample, rad.
+
+    Returns
+    -------
+    ndarray, shape (T,)
+        Angles, rad.
+    """
+    f = np.ascontiguousarray(f, dtype=float)
+    if f.ndim != 1 or not np.all(np.isfinite(f)):
+        raise InputDataError(f"f: expected a finite 1-D moment history, got shape {f.shape}")
+    if not (0.0 < k2 < k1 and fy > 0.0):
+        raise InputDataError(f"inverse_bilinear: need 0 < k2 < k1 and fy > 0, got k1={k1:g}, "
+                             f"k2={k2:g}, fy={fy:g}")
+    out = np.empty_like(f)
+    _inverse_bilinear_kernel(f, float(k1), float(k2), float(fy), float(theta0), out)
+    return out
+
+
+@jit
+def _damped_bilinear_kernel(g, dt, k1, k2, fy, c, shift, theta, f):  # pragma: no cover - compiled
+    s = fy * (1.0 - k2 / k1)
+    theta[0] = 0.0
+    f[0] = g[0]
+    a = c / dt
+    for i in range(g.size - 1):
+        # trapezoidal rule for c θ' = g − f, elastic branch first
+        rhs = 0.5 * (g[i] - f[i] + g[i + 1])
+        d = (rhs - 0.5 * f[i]) / (a + 0.5 * k1)
+        th = theta[i] + d
+        fe = f[i] + k1 * d
+        up = k2 * th + shift + s
+        lo = k2 * th + shift - s
+        if fe > up:
+            d = (rhs - 0.5 * (k2 * theta[i] + shift + s)) / (a + 0.5 * k2)
+            th = theta[i] + d
+            fe = k2 * th + shift + s
+        elif fe < lo:
+            d = (rhs - 0.5 * (k2 * theta[i] + shift - s)) / (a + 0.5 * k2)
+            th = theta[i] + d
+            fe = k2 * th + shift - s
+        theta[i + 1] = th
+        f[i + 1] = fe
+
+
+def damped_bilinear(g: np.ndarray, dt: float, k1: float, k2: float, fy: float, c: float,
+                    shift: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Angle and spring-moment histories of one spring and its damper under a known moment.
+
+    Spring ``n`` and damper ``n`` carry together the moment ``g_n`` that the accelerations
+    of the masses above them impose (``c θ̇ + f(θ) = g``, SPEC §3); ``f`` follows the bilinear
+    kinematic-hardening rule.  Integrated by the trapezoidal rule, exactly on each branch,
+    from rest (``θ = 0``) at the first sample.
+
+    Parameters
+    ----------
+    g : ndarray, shape (T,)
+        Moment carried by the spring and the damper together, N·m, sampled every ``dt`` s.
+    k1, k2, fy, c : float
+        Spring (N·m/rad, N·m) and damper (N·m·s/rad) parameters, ``0 < k2 < k1``, ``c > 0``.
+    shift : float
+        Offset of the yield lines ``k2 θ + shift ± s``, N·m: the back moment that yielding
+        before the first sample left (0 for a spring that never yielded).
+
+    Returns
+    -------
+    theta, f : ndarray, shape (T,)
+        Angle (rad) and spring moment (N·m).
+    """
+    g = np.ascontiguousarray(g, dtype=float)
+    if g.ndim != 1 or not np.all(np.isfinite(g)):
+        raise InputDataError(f"g: expected a finite 1-D moment history, got shape {g.shape}")
+    if not (0.0 < k2 < k1 and fy > 0.0 and c > 0.0 and dt > 0.0):
+        raise InputDataError(f"damped_bilinear: need 0 < k2 < k1, fy > 0, c > 0, dt > 0; got "
+                             f"k1={k1:g}, k2={k2:g}, fy={fy:g}, c={c:g}, dt={dt:g}")
+    theta = np.empty_like(g)
+    f = np.empty_like(g)
+    _damped_bilinear_kernel(g, float(dt), float(k1), float(k2), float(fy), float(c),
+                            float(shift), theta, f)
+    return theta, f

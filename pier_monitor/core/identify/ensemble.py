@@ -1,0 +1,86 @@
+"""The data of an ensemble's members: the measured window, perturbed as its noise allows.
+
+An identification's uncertainty comes from re-identifying under data that differ as much as
+the measurement's own errors do (randomise-then-optimise: for a linear Gaussian problem the
+members are exact samples of the posterior; here they are its honest approximation).  A
+member's window is the measured one plus a draw of those errors:
+
+* white noise of the accelerations' ``noise.a`` (and ``noise.ag`` on the foundation);
+* for velocities and displacements that come from a smoother (wires fused with
+  accelerometers), errors correlated in time: a stationary Gauss-Markov process per level with
+  the level's standard deviation ``noise.x`` and one-sample increment noise ``noise.dx``
+  (white where the increment noise is unknown), likewise for ``v``;
+* measured moments: white ``noise.f``;
+* the sensors' gains, known only to ``noise.gain_rel``: each level's absolute acceleration
+  and displacement scaled by its own ``1 + ε``, ``ε ~ N(0, gain_rel)``.
+
+Member 0 is the measured window itself.  Levels that nothing measures stay NaN.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from pier_monitor.core.ingest.window import MeasuredWindow
+
+__all__ = ["member_windows", "correlated_noise"]
+
+
+def correlated_noise(rng: np.random.Generator, t_len: int, sigma: np.ndarray,
+                     sigma_increment: np.ndarray) -> np.ndarray:
+    """Stationary Gauss-Markov noise (T, N): level standard deviation ``sigma`` (N,) and
+    one-sample increment standard deviation ``sigma_increment`` (N,); white where the
+    increment noise is unknown (NaN) or at least ``√2 sigma``."""
+    sigma = np.nan_to_num(np.asarray(sigma, dtype=float))
+    inc = np.asarray(sigma_increment, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = np.where(np.isfinite(inc) & (sigma > 0), 1.0 - inc ** 2 / (2.0 * sigma ** 2), 0.0)
+    rho = np.clip(rho, 0.0, 1.0 - 1e-12)
+    xi = rng.standard_normal((t_len, sigma.size))
+    out = np.empty_like(xi)
+    out[0] = xi[0]
+    scale = np.sqrt(1.0 - rho ** 2)
+    for k in range(1, t_len):
+        out[k] = rho * out[k - 1] + scale * xi[k]
+    return out * sigma
+
+
+def _perturbed(window: MeasuredWindow, rng: np.random.Generator) -> MeasuredWindow:
+    noise, cov = window.noise, window.coverage
+    t_len, n = window.a.shape
+
+    def sd(values: np.ndarray) -> np.ndarray:
+        return np.nan_to_num(np.asarray(values, dtype=float))
+
+    ag = window.ag + (sd(noise.ag) if np.isfinite(noise.ag) else 0.0) * rng.standard_normal(t_len)
+    a = window.a + sd(noise.a) * rng.standard_normal((t_len, n))
+    v = window.v + correlated_noise(rng, t_len, noise.v, noise.dv)
+    x = window.x + correlated_noise(rng, t_len, noise.x, noise.dx)
+    moments = window.moments
+    if moments is not None:
+        moments = moments + sd(noise.f) * rng.standard_normal((t_len, n))
+    if noise.gain_rel > 0:
+        eps_a = noise.gain_rel * rng.standard_normal(n)
+        eps_x = noise.gain_rel * rng.standard_normal(n)
+        a = a + eps_a * (a + ag[:, None])  # level accelerometers scaled, foundation the reference
+        x = np.where(cov.displacement, x * (1.0 + eps_x), x)
+    return dataclasses.replace(window, ag=ag, a=a, v=v, x=x, moments=moments)
+
+
+def member_windows(window: MeasuredWindow, members: int, seed: int = 0
+                   ) -> list[MeasuredWindow]:
+    """The windows of ``members`` members: the measured one, then perturbed copies.
+
+    Parameters
+    ----------
+    window : MeasuredWindow
+        The measured window (its noise model says how much each quantity may be off).
+    members : int
+        Number of members ``M`` (1: the measured window alone).
+    seed : int
+        Seed of the perturbations.
+    """
+    rng = np.random.default_rng(seed)
+    return [window] + [_perturbed(window, rng) for _ in range(members - 1)]

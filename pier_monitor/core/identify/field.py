@@ -1,0 +1,520 @@
+"""Springs from accelerations: the reconstruction of what a field network does not measure.
+
+A monitoring network on a pier in service has accelerometers (at the foundation, the pier
+head, some intermediate heights) and no displacement transducer: nothing stands still to
+anchor a wire.  Integrating accelerations gives displacements only above the drift band, and
+the part that matters most for damage, the plastic offset left by yielding, lies below it.
+The physics gives it back (SPEC §3):
+
+* the restoring moment of every spring follows from the accelerations of the masses above
+  it (``g = (Bᵀ)⁻¹ (−M (ẍ + 1 a_g))``, so ``f = g − c θ̇``), also where a level has no sensor
+  of its own (its small mass is interpolated between the measured ones);
+* a bilinear kinematic-hardening spring driven by its moment has one angle history
+  (:func:`~pier_monitor.core.model.link_model.inverse_bilinear`), with the plastic offsets,
+  the drift and the residual angle that integration cannot see;
+* ``x = B⁻¹ θ`` then gives every level's displacement, measured or not.
+
+The parameters are those that make these reconstructed displacements match what was
+measured: double-integrated accelerations where there is nothing else (compared after both
+are stripped of a low-order polynomial over the window, the band that integration loses to
+sensor noise and bias), displacements where a wire or a GNSS receiver measures them.  The
+accelerometers' gains are known only to about 1 % (``noise.gain_rel``); a gain error ``ε``
+of a level turns into ``ε (x + x_g)`` in its integrated displacement, and ``x_g``, the
+ground's displacement, is large in a strong shaking.  The relative gains of the levels are
+estimated with the springs, against a prior of ``gain_rel``.
+
+Stages (each result kept, so that a benchmark measures every one):
+
+1. ``increments`` — with every level measured, ``k1`` and ``c`` of each spring by a robust
+   regression of moment increments on angle and angular-velocity increments (the part of
+   ``θ`` that integration gets right); else the design values;
+2. ``springs`` — with every level measured, each spring fitted on its own (``k1, k2, fy,
+   c``; several starts of ``fy``), gains held at one;
+3. ``joint`` — all springs and the gains together.
+
+This module uses no torch; the PINN (:mod:`pier_monitor.pinn`) starts from its result.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize, stats
+
+from pier_monitor.core.errors import IdentificationError
+from pier_monitor.core.identify.equation_error import robust_increments
+from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.core.model.config import SpringParameters
+from pier_monitor.core.model.link_model import angle_matrix, damped_bilinear
+from pier_monitor.core.numerics import Detrend, cumulative_trapezoid
+
+__all__ = ["FieldSettings", "FieldFit", "FieldMembers", "fit_field"]
+
+
+@dataclass(frozen=True)
+class FieldSettings:
+    """Settings of the field reconstruction.
+
+    Attributes
+    ----------
+    detrend_degree : int
+        Degree of the polynomial (over the window) removed from integrated and reconstructed
+        displacements before they are compared.
+    gain_sd : float or None
+        Prior 1-sigma relative gain error of the level accelerations; None: the window's
+        ``noise.gain_rel``, else 1 %.
+    fy_shares : tuple of float
+        Starts of each spring's yield moment, as shares of its largest moment.
+    max_nfev : int
+        Evaluation limit of the joint fit.
+    yield_chi2 : float
+        A spring counts as yielded when holding it elastic raises the fit's chi-square
+        (residuals in units of their standard deviations) by more than this: a
+        likelihood-ratio test of the yield branch (13.8 is the 99.9 % point of chi-square
+        with the two parameters, k2 and fy, that the elastic spring drops).
+    yield_share : float
+        ... and by more than this share of the fit's remaining chi-square: a model error the
+        fit leaves (design values far off, uncalibrated sensors) must not be explained away
+        by a yielding spring.  On the field benchmark (both piers, both shakings, five
+        seeds) springs that yield gained at least 10 times the remaining chi-square, elastic
+        springs that the chi-square test alone called yielded at most 1.2 times.
+    misfit_floor : float
+        Expected misfit of the reconstructed displacements, as a share of each level's
+        signal: the sensors' gain errors and the model's own error, far above the noise.
+    decorrelation : float
+        Samples per independent piece of information in a smooth displacement record.
+    disp_decorrelation_s : float
+        Time (s) over which the error of a measured displacement stays correlated: a GNSS
+        reading fused with the accelerations is smoothed over about a second, so its
+        samples are far from independent.
+    interval_scale : float
+        Factor on the standard deviations of the linearised posterior that the ensemble is
+        drawn from: the residuals' weights (misfit floor, decorrelation) make the
+        chi-square only approximately a likelihood.  1.5 from the coverage suite's
+        calibration seeds (100-119), checked on others (200-219).
+    prior_k1, prior_other, prior_shift : float
+        Prior standard deviations about the design values: of log k1, of log (k2/k1) and
+        log c, and of the yield-line offset (in units of fy).  They matter only where the
+        data say little (a spring between two unmeasured levels, a spring that stays
+        elastic), and keep those near the design instead of anywhere.
+    """
+
+    detrend_degree: int = 5
+    gain_sd: float | None = None
+    fy_shares: tuple[float, ...] = (0.5, 0.7, 0.85, 1.0, 1.5)
+    max_nfev: int = 200
+    yield_chi2: float = 13.8
+    yield_share: float = 2.0
+    misfit_floor: float = 0.01
+    decorrelation: float = 20.0
+    interval_scale: float = 1.5
+    disp_decorrelation_s: float = 1.0
+    prior_k1: float = 0.3
+    prior_other: float = 1.0
+    prior_shift: float = 0.3
+
+
+@dataclass(frozen=True)
+class FieldMembers:
+    """An ensemble around a field reconstruction (M members; member 0 the fit itself).
+
+    Attributes
+    ----------
+    params : ndarray, shape (M, N, 4)
+        ``k1, k2, fy, c`` of each member (SI); ``fy`` of a spring that did not yield is the
+        lower bound, its largest moment.
+    theta, moment : ndarray, shape (M, T, N)
+        Each member's angles (rad) and spring moments (N·m).
+    yielded : ndarray of bool, shape (M, N)
+    ductility : ndarray, shape (M, N)
+        Ductility factors (at most 1 where the member's spring did not yield).
+    """
+
+    params: np.ndarray
+    theta: np.ndarray
+    moment: np.ndarray
+    yielded: np.ndarray
+    ductility: np.ndarray
+
+
+@dataclass(frozen=True)
+class FieldFit:
+    """What the field reconstruction found.
+
+    Attributes
+    ----------
+    params : SpringParameters
+        The final parameters (stage ``joint``).
+    stages : dict of str to SpringParameters
+        Parameters after each stage, in order (``increments``, ``springs``, ``joint``).
+    yielded : ndarray of bool, shape (N,)
+        Springs whose data show yielding.
+    gains : ndarray, shape (N,)
+        Estimated relative gain error of each level's acceleration against the foundation's
+        (0 where the level has no accelerometer).
+    theta, moment : ndarray, shape (T, N)
+        Reconstructed spring angles (rad) and moments (N·m).
+    x, v : ndarray, shape (T, N)
+        Reconstructed displacements (m) and velocities (m/s) of every level, relative to the
+        foundation.
+    misfit : ndarray, shape (N,)
+        RMS of the displacement residual of each measured level over the RMS of its
+        measured (detrended) displacement; NaN where not measured.
+    members : FieldMembers or None
+        The ensemble, when one was asked for.
+    """
+
+    params: SpringParameters
+    stages: dict[str, SpringParameters]
+    yielded: np.ndarray
+    gains: np.ndarray
+    theta: np.ndarray
+    moment: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    misfit: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    members: FieldMembers | None = None
+
+
+class _Problem:
+    """Data and model of one window (see the module documentation)."""
+
+    def __init__(self, window: MeasuredWindow, settings: FieldSettings) -> None:
+        g = window.geometry
+        cov = window.coverage
+        self.n = n = g.n_levels
+        self.t_len = t_len = window.t.size
+        self.dt = dt = window.dt
+        self.b = angle_matrix(g.section_heights_m)
+        self.b_inv = np.linalg.inv(self.b)
+        self.bt_inv = np.linalg.inv(self.b.T)
+        self.m = g.masses_kg
+        self.acc = np.flatnonzero(cov.acceleration)
+        if not cov.acceleration[-1]:
+            raise IdentificationError(
+                f"window {window.event_id}: the top level (level {n}) has no accelerometer; "
+                "the moments of the springs cannot be known without the motion of its mass")
+        self.disp = np.flatnonzero(cov.displacement)
+        self.full = bool(cov.acceleration.all())
+        gain_sd = settings.gain_sd
+        if gain_sd is None:
+            gain_sd = window.noise.gain_rel if window.noise.gain_rel > 0 else 0.01
+        self.gain_sd = float(gain_sd)
+        # absolute accelerations of every mass; levels without a sensor interpolated in height
+        z = g.level_heights_m
+        known_z = np.r_[0.0, z[1:][self.acc]]
+        known = np.column_stack([window.ag, window.a[:, self.acc] + window.ag[:, None]])
+        self.a_abs = np.empty((t_len, n))
+        for j in range(n):
+            k = int(np.searchsorted(known_z, z[j + 1]))
+            if k < known_z.size and known_z[k] == z[j + 1]:
+                self.a_abs[:, j] = known[:, k]
+            else:
+                w = (z[j + 1] - known_z[k - 1]) / (known_z[k] - known_z[k - 1])
+                self.a_abs[:, j] = (1.0 - w) * known[:, k - 1] + w * known[:, k]
+        self.detrend = Detrend(t_len, settings.detrend_degree)
+        a_acc = window.a[:, self.acc]
+        v_int = cumulative_trapezoid(a_acc, dt)
+        self.x_int = self.detrend(cumulative_trapezoid(v_int, dt))
+        self.v_int = self.detrend(v_int)
+        v_g = cumulative_trapezoid(window.ag, dt)
+        self.x_g = cumulative_trapezoid(v_g, dt)
+        self.scale = np.sqrt(np.mean(self.x_int ** 2, axis=0))
+        self.scale = np.where(self.scale > 0, self.scale, 1.0)
+        # measured displacements (wires, GNSS): compared as they are
+        self.x_meas = window.x[:, self.disp]
+        sig = window.noise.x[self.disp]
+        self.x_sigma = np.where(np.isfinite(sig) & (sig > 0), sig,
+                                1e-3 * np.abs(self.x_meas).max(axis=0) + 1e-12)
+        self.disp_scale = np.sqrt(np.mean(self.x_meas ** 2, axis=0)) if self.disp.size else 0.0
+        self.floor = settings.misfit_floor
+        self.weight = 1.0 / np.sqrt(settings.decorrelation)
+        self.disp_weight = 1.0 / np.sqrt(max(settings.decorrelation,
+                                             settings.disp_decorrelation_s / dt))
+        self.prior_sd = np.array([settings.prior_k1, settings.prior_other, np.inf,
+                                  settings.prior_other, settings.prior_shift])
+        self.prior_mean = np.zeros((n, 5))
+        self.g0 = self.moments(np.zeros(self.acc.size))
+        self.f_max = np.maximum(np.abs(self.g0).max(axis=0), 1e-12)
+        # angular velocities (detrended integrals) for the start from increments
+        self.theta_dot_meas = (self.v_int @ self.b.T) if self.full else None
+
+    def moments(self, eps: np.ndarray) -> np.ndarray:
+        """``g`` (T, N) with the level accelerations corrected by the gain errors ``eps``."""
+        e = np.zeros(self.n)
+        e[self.acc] = eps
+        return (-(self.a_abs / (1.0 + e)) * self.m) @ self.bt_inv.T
+
+    def angles(self, p: np.ndarray, g: np.ndarray, springs: range | list[int] | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """Angles and spring moments (T, N) for parameters ``p`` (N, 5): log k1, log k2/k1,
+        log fy, log c, and the offset of the yield lines in units of ``fy`` (the back moment
+        left by yielding before the window).  Only ``springs`` are computed (others zero)."""
+        k1 = np.exp(p[:, 0])
+        k2 = k1 * np.exp(p[:, 1])
+        fy, c = np.exp(p[:, 2]), np.exp(p[:, 3])
+        c = np.maximum(c, k1 * self.dt / 20.0)  # keeps the trapezoidal rule from ringing
+        theta = np.zeros((self.t_len, self.n))
+        moment = np.zeros((self.t_len, self.n))
+        for i in range(self.n) if springs is None else springs:
+            theta[:, i], moment[:, i] = damped_bilinear(g[:, i], self.dt, k1[i], k2[i], fy[i],
+                                                        c[i], p[i, 4] * fy[i])
+        return theta, moment
+
+    def residual(self, p: np.ndarray, eps: np.ndarray) -> np.ndarray:
+        """Residuals in units of their standard deviations: the displacements of the
+        measured levels (a misfit floor of ``misfit_floor`` of each level's signal; samples
+        of smooth displacements are far from independent, hence the ``decorrelation``),
+        then the priors of the parameters and of the gains."""
+        theta = self.angles(p, self.moments(eps))[0]
+        x = theta @ self.b_inv.T
+        xa = x[:, self.acc]
+        pred = self.detrend(xa + eps * (xa + self.x_g[:, None]))
+        parts = [((pred - self.x_int) / (self.floor * self.scale)).ravel() * self.weight]
+        if self.disp.size:
+            # a displacement fused with the level's accelerometer carries its gain error
+            # in the band the accelerometer dominates
+            e = np.zeros(self.n)
+            e[self.acc] = eps
+            xd = x[:, self.disp]
+            xd = xd + e[self.disp] * (xd + self.x_g[:, None])
+            sd = np.sqrt(self.x_sigma ** 2 + (self.floor * self.disp_scale) ** 2)
+            parts.append(((xd - self.x_meas) / sd).ravel() * self.disp_weight)
+        parts.append(((p - self.prior_mean) / self.prior_sd).ravel())
+        parts.append(eps / self.gain_sd)
+        return np.concatenate(parts)
+
+    def set_prior(self, mean: np.ndarray) -> None:
+        """Prior means (N, 5) of the parameters (the design values)."""
+        self.prior_mean = mean
+
+
+def _smooth_derivative(y: np.ndarray, dt: float, half: int = 2) -> np.ndarray:
+    """Central difference over ``2 half`` samples (a derivative that does not amplify noise)."""
+    out = np.empty_like(y)
+    out[half:-half] = (y[2 * half:] - y[:-2 * half]) / (2 * half * dt)
+    out[:half] = out[half]
+    out[-half:] = out[-half - 1]
+    return out
+
+
+_COLUMNS = 5  # log k1, log k2/k1, log fy, log c, yield-line offset / fy
+
+
+def _params(p: np.ndarray) -> SpringParameters:
+    k1 = np.exp(p[:, 0])
+    return SpringParameters(k1, k1 * np.exp(p[:, 1]), np.exp(p[:, 2]), np.exp(p[:, 3]))
+
+
+def _bounds(p: np.ndarray, f_max: np.ndarray, width_k1: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds (N, 5) around ``p``: k1 within a factor e^width_k1, k2/k1 in [1e-3, 0.5], fy
+    within [0.1, 10] of the largest moment, c within e^±5, offset within ±0.9 fy."""
+    n = p.shape[0]
+    lo = np.column_stack([p[:, 0] - width_k1, np.full(n, np.log(1e-3)), np.log(0.1 * f_max),
+                          p[:, 3] - 5.0, np.full(n, -0.9)])
+    hi = np.column_stack([p[:, 0] + width_k1, np.full(n, np.log(0.5)), np.log(10.0 * f_max),
+                          p[:, 3] + 5.0, np.full(n, 0.9)])
+    return lo, hi
+
+
+_X_SCALE = np.array([0.01, 0.1, 0.02, 0.1, 0.05])
+
+
+def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
+              members: int = 1, seed: int = 0) -> FieldFit:
+    """Identify the springs of a window measured by a field network (see the module doc).
+
+    Parameters
+    ----------
+    window : MeasuredWindow
+        The event window; ``coverage`` says which levels have accelerometers and which
+        displacement sensors.  The structure should be at rest at the first sample (the
+        ingest pads windows with the quiet lead-in).
+    settings : FieldSettings, optional
+    members : int
+        With more than one, also members drawn from the fit's linearised posterior
+        (:class:`FieldMembers`; member 0 is the fit itself).
+    seed : int
+        Seed of those draws.
+
+    Raises
+    ------
+    IdentificationError
+        When the top level has no accelerometer.
+    """
+    settings = settings or FieldSettings()
+    pb = _Problem(window, settings)
+    n = pb.n
+    design = window.design
+    stages: dict[str, SpringParameters] = {}
+    ratio = np.clip(design.k2 / design.k1, 1e-3, 0.5)
+    pb.set_prior(np.column_stack([np.log(design.k1), np.log(ratio), np.zeros(n),
+                                  np.log(np.maximum(design.c, 1e-6 * design.k1)), np.zeros(n)]))
+
+    # 1. increments (every level measured), else the design values
+    k1 = np.array(design.k1, dtype=float)
+    c = np.maximum(np.array(design.c, dtype=float), 1e-6 * k1)
+    if pb.full:
+        theta = pb.x_int @ pb.b.T
+        for i in range(n):
+            cols = np.column_stack([np.diff(theta[:, i]), np.diff(pb.theta_dot_meas[:, i])])
+            unloading = pb.g0[:-1, i] * np.diff(pb.g0[:, i]) < 0
+            k_i, c_i = robust_increments(np.diff(pb.g0[:, i]), cols, rows=unloading)
+            if k_i > 0:
+                k1[i] = k_i
+            c[i] = max(c_i, 1e-4 * k1[i])
+    p = np.column_stack([np.log(k1), np.log(ratio), np.log(0.85 * pb.f_max), np.log(c),
+                         np.zeros(n)])
+    stages["increments" if pb.full else "design"] = _params(p)
+
+    # 2. each spring on its own (every level measured), gains held
+    if pb.full:
+        theta_meas = pb.x_int @ pb.b.T
+        lo, hi = _bounds(p, pb.f_max, 0.7)
+        for i in range(n):
+            target = theta_meas[:, i]
+            norm = max(float(np.std(target)), 1e-15)
+
+            def res_i(q: np.ndarray, i: int = i, target: np.ndarray = target,
+                      norm: float = norm) -> np.ndarray:
+                pp = p.copy()
+                pp[i] = q
+                th = pb.angles(pp, pb.g0, springs=[i])[0][:, i]
+                return (pb.detrend(th) - target) / norm
+
+            best = None
+            for share in settings.fy_shares:
+                q0 = np.clip([p[i, 0], p[i, 1], np.log(share * pb.f_max[i]), p[i, 3], 0.0],
+                             lo[i] + 1e-9, hi[i] - 1e-9)
+                sol = optimize.least_squares(res_i, q0, bounds=(lo[i], hi[i]),
+                                             x_scale=_X_SCALE, max_nfev=60)
+                if best is None or sol.cost < best.cost:
+                    best = sol
+            p[i] = best.x
+        stages["springs"] = _params(p)
+
+    # 3. joint: every spring and the gains (several starts of fy without stage 2)
+    n_eps = pb.acc.size
+    lo, hi = _bounds(p, pb.f_max, 1.0 if pb.full else 1.5)
+    lo = np.r_[lo.ravel(), np.full(n_eps, -5 * pb.gain_sd)]
+    hi = np.r_[hi.ravel(), np.full(n_eps, 5 * pb.gain_sd)]
+    scales = np.r_[np.tile(_X_SCALE, n), np.full(n_eps, 0.2 * pb.gain_sd)]
+
+    def res_joint(zv: np.ndarray) -> np.ndarray:
+        return pb.residual(zv[:_COLUMNS * n].reshape(n, _COLUMNS), zv[_COLUMNS * n:])
+
+    starts = [p] if pb.full else [
+        np.column_stack([p[:, :2], np.log(share * pb.f_max), p[:, 3:]])
+        for share in settings.fy_shares]
+    sol = None
+    for p0 in starts:
+        z0 = np.clip(np.r_[p0.ravel(), np.zeros(n_eps)], lo + 1e-9, hi - 1e-9)
+        trial = optimize.least_squares(res_joint, z0, bounds=(lo, hi), x_scale=scales,
+                                       max_nfev=settings.max_nfev)
+        if sol is None or trial.cost < sol.cost:
+            sol = trial
+    p = sol.x[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
+    eps = sol.x[_COLUMNS * n:]
+    # the test weighs the accelerations' evidence only: a displacement fused from a GNSS
+    # receiver and an accelerometer carries slow errors of its own (the accelerometer's
+    # tilt with the section, the fusion's crossover) that a yielding top spring, carrying
+    # the smallest moment, explains too easily
+    n_acc = pb.t_len * pb.acc.size
+    base_cost = float(np.sum(sol.fun[:n_acc] ** 2))
+
+    # which springs yielded: does holding a spring elastic worsen the fit?
+    yielded = np.zeros(n, dtype=bool)
+    for i in range(n):
+        if np.exp(p[i, 2]) * (1.0 - abs(p[i, 4])) >= pb.f_max[i]:
+            continue  # the fitted yield lines are never reached
+        pe = p.copy()
+        pe[i, 2] = np.log(10.0 * pb.f_max[i])
+        pe[i, 4] = 0.0
+        cost_el = float(np.sum(pb.residual(pe, eps)[:n_acc] ** 2))
+        gain = cost_el - base_cost
+        yielded[i] = gain > settings.yield_chi2 and gain > settings.yield_share * base_cost
+    p_model = p.copy()
+    p_model[~yielded, 2] = np.log(10.0 * pb.f_max[~yielded])  # elastic springs stay elastic
+    p_model[~yielded, 4] = 0.0
+    g_fit = pb.moments(eps)
+    theta, moment = pb.angles(p_model, g_fit)
+    # a spring that never yielded: fy only bounded below by its largest moment
+    p_report = p_model.copy()
+    p_report[~yielded, 2] = np.log(np.abs(g_fit[:, ~yielded]).max(axis=0))
+    # ... and k2 not identifiable: the design's ratio (what the fit left there is arbitrary)
+    p_report[~yielded, 1] = pb.prior_mean[~yielded, 1]
+    params = _params(p_report)
+    stages["joint"] = params
+    x = theta @ pb.b_inv.T
+    v = _smooth_derivative(x, pb.dt, half=1)
+    gains = np.zeros(n)
+    gains[pb.acc] = eps
+    xa = x[:, pb.acc]
+    res = pb.detrend(xa + eps * (xa + pb.x_g[:, None])) - pb.x_int
+    misfit = np.full(n, np.nan)
+    misfit[pb.acc] = np.sqrt(np.mean(res ** 2, axis=0)) / pb.scale
+    ensemble = None
+    if members > 1:
+        ensemble = _laplace_members(pb, sol, lo, hi, yielded, members, seed,
+                                    settings.interval_scale)
+    return FieldFit(params=params, stages=stages, yielded=yielded, gains=gains, theta=theta,
+                    moment=moment, x=x, v=v, misfit=misfit, members=ensemble)
+
+
+def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
+                     hi: np.ndarray, yielded: np.ndarray, members: int, seed: int,
+                     scale: float = 1.0) -> FieldMembers:
+    """Members drawn from the linearised posterior of the joint fit (member 0: the fit).
+
+    The covariance is ``s² (JᵀJ)⁻¹`` of the residuals' Jacobian at the solution, with ``s²``
+    the reduced chi-square when the fit is worse than its stated misfit floor (never less
+    than one), times ``scale²``; draws the linearisation does not hold for are replaced (see
+    the code).  Each member's springs and gains give its own angles and moments; a spring
+    the fit found elastic stays elastic in every member.
+    """
+    n = pb.n
+    jac = np.asarray(sol.jac)
+    dof = max(sol.fun.size - sol.x.size, 1)
+    s2 = max(2.0 * float(sol.cost) / dof, 1.0)
+    cov = s2 * scale ** 2 * np.linalg.pinv(jac.T @ jac)
+    w, vec = np.linalg.eigh(0.5 * (cov + cov.T))
+    root = vec * np.sqrt(np.clip(w, 0.0, None))
+    rng = np.random.default_rng(seed)
+    # the linearisation fails far from the fit (a spring that only just yields: a low fy
+    # draw makes its DF explode): a draw whose chi-square rises beyond what its Gaussian
+    # allows (the 99.9 % point with as many degrees of freedom as parameters) is replaced
+    def cost(z: np.ndarray) -> float:
+        p = z[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
+        p[~yielded, 2] = np.log(10.0 * pb.f_max[~yielded])  # as the members use them
+        p[~yielded, 4] = 0.0
+        return float(np.sum(pb.residual(p, z[_COLUMNS * n:]) ** 2))
+
+    base = cost(sol.x)
+    limit = s2 * scale ** 2 * stats.chi2.ppf(0.999, sol.x.size)
+    draws = [sol.x]
+    for _ in range(8 * members):
+        if len(draws) == members:
+            break
+        z = np.clip(sol.x + root @ rng.standard_normal(sol.x.size), lo, hi)
+        if cost(z) - base <= limit:
+            draws.append(z)
+    draws = np.array(draws + [sol.x] * (members - len(draws)))
+    params = np.empty((members, n, 4))
+    theta = np.empty((members, pb.t_len, n))
+    moment = np.empty_like(theta)
+    for m, z in enumerate(draws):
+        p = z[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
+        p[~yielded, 2] = np.log(10.0 * pb.f_max[~yielded])
+        p[~yielded, 4] = 0.0
+        g = pb.moments(z[_COLUMNS * n:])
+        theta[m], moment[m] = pb.angles(p, g)
+        k1 = np.exp(p[:, 0])
+        params[m] = np.column_stack([k1, k1 * np.exp(p[:, 1]), np.exp(p[:, 2]), np.exp(p[:, 3])])
+        params[m, ~yielded, 2] = np.abs(g[:, ~yielded]).max(axis=0)
+    reached = np.abs(moment).max(axis=1) > params[..., 2] * (1.0 - np.abs(draws[:, 4:_COLUMNS * n:_COLUMNS]))
+    member_yielded = yielded & reached
+    ductility = np.abs(theta).max(axis=1) / (params[..., 2] / params[..., 0])
+    ductility = np.where(member_yielded, ductility, np.minimum(ductility, 1.0))
+    return FieldMembers(params=params, theta=theta, moment=moment, yielded=member_yielded,
+                        ductility=ductility)
