@@ -25,10 +25,12 @@ from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.ingest.window import MeasuredWindow
-from pier_monitor.core.model.config import SpringParameters
+from pier_monitor.core.model.config import PierConfig, SpringParameters, load_config
 from pier_monitor.core.model.ground_motion import GroundMotion, el_centro_1940, synthetic_near_fault
 from pier_monitor.core.model.solver import HAVE_NUMBA, Response, simulate
-from pier_monitor.core.synthetic.field import field_case_recording
+from pier_monitor.core.resources import find_config_file
+from pier_monitor.core.synthetic.field import field_case_recording, field_pier, field_recording
+from pier_monitor.core.synthetic.shaking_table import RunSpec, Scenario, generate_recording
 from pier_monitor.core.synthetic.reference import (paper_case_window, realistic_case_window,
                                                    table1_model)
 from pier_monitor.fleet import FleetOptions, LocalPool, RayBackend, run_fleet
@@ -283,6 +285,68 @@ def bench_coverage(seeds: int = 20, members: int = 32, first_seed: int = 200,
     return out
 
 
+def _pga_for_ductility(config: PierConfig, run: RunSpec, target: float) -> float:
+    """PGA (m/s²) of ``run`` at which the base spring's true DF is ``target`` (bisection;
+    the DF grows with the PGA)."""
+    def df(pga: float) -> float:
+        scenario = Scenario(runs=(dataclasses.replace(run, pga_mps2=pga),), lead_s=20.0,
+                            tail_s=20.0)
+        truth = generate_recording(config, scenario, seed=0).truth
+        return float(truth.runs[0].ductility_factors[0])
+
+    lo, hi = 0.25 * run.pga_mps2, 2.0 * run.pga_mps2
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if df(mid) < target else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def bench_missed_damage(seeds: int = 5, members: int = 32,
+                        targets: tuple[float, ...] = (1.2, 1.5),
+                        noise_factors: tuple[float, ...] = (1.0, 3.0)) -> list[dict[str, Any]]:
+    """Missed damage: the E-Defense-style pier, accelerometers only, shaken so that its base
+    spring reaches a true DF of 1.2 and of 1.5, at the sensors' noise and at three times it
+    (the configuration knows the noise), ``seeds`` seeds, ``members``-member ensembles.
+    Each run records the base spring's state and its probability of being intact; it must
+    never be reported intact with a probability above 0.5."""
+    spec = field_pier("edefense")
+    base = load_config(find_config_file(spec.config_file))
+    run = spec.runs["just_yield"]
+    out = []
+    for target in targets:
+        pga = _pga_for_ductility(base, run, target)
+        scenario = Scenario(runs=(dataclasses.replace(run, pga_mps2=pga),), lead_s=20.0,
+                            tail_s=20.0)
+        for factor in noise_factors:
+            config = dataclasses.replace(base, sensors=tuple(
+                dataclasses.replace(sp, noise_rms=sp.noise_rms * factor) for sp in base.sensors))
+            for seed in range(seeds):
+                syn = field_recording(config, "accel", scenario, seed=seed)
+                windows, _ = ingest_recording(syn.recording)
+                window = windows[0]
+                truth = syn.truth.runs[0]
+                rate = syn.truth.sample_rate_hz
+                first = int(round((window.start_time_ns - truth.start_ns) * rate / 1e9))
+                step = int(round(rate * window.dt))
+                theta = truth.response.theta[first:first + step * window.t.size:step]
+                design = SpringParameters(*(getattr(truth.params, k)
+                                            * np.asarray(DESIGN_FACTORS[k][:window.n_levels])
+                                            for k in ("k1", "k2", "fy", "c")))
+                window = dataclasses.replace(window, design=design)
+                identified = identify(window, PinnSettings(seed=seed, members=members))
+                scored = score_run(f"missed_damage_df{target:g}_noise{factor:g}x", identified,
+                                   truth.params, theta, seed=seed, target_df=target,
+                                   noise_factor=factor, pga_mps2=pga)
+                base_spring = scored["springs"][0]
+                p_intact = base_spring["interval"]["p_state"][0]
+                scored["base_spring"] = {"state": base_spring["state"], "p_intact": p_intact,
+                                         "true_df": base_spring["true_df"],
+                                         "missed": bool(base_spring["state"] == "intact"
+                                                        or p_intact > 0.5)}
+                out.append(scored)
+    return out
+
+
 def bench_ingest() -> list[dict[str, Any]]:
     """Read and ingest the synthetic E-Defense-style bag (150 s, 32 sensors, 80 channels at
     200 Hz, two events): whole, and streamed in 0.1 s blocks."""
@@ -367,6 +431,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "fleet": bench_fleet,
     "field": bench_field,
     "coverage": bench_coverage,
+    "missed_damage": bench_missed_damage,
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.
@@ -452,6 +517,11 @@ def summarize_cases(results: list[dict[str, Any]]) -> str:
         final = (f"final {_mean([r['mae_pct']['k1_yielded'] for r in runs]):.2f}/"
                  f"{_mean([r['mae_pct']['c_yielded'] for r in runs]):.1f}")
         ok = sum(bool(r["states_ok"]) for r in runs)
+        missed = ""
+        if all("base_spring" in r for r in runs):
+            missed = (f"  base spring missed (intact, or P(intact) > 0.5) in "
+                      f"{sum(r['base_spring']['missed'] for r in runs)}/{len(runs)}, largest "
+                      f"P(intact) {max(r['base_spring']['p_intact'] for r in runs):.2f}")
         cov = ""
         if all("coverage" in r for r in runs):
             cov = "  90 % intervals hold the truth: " + ", ".join(
@@ -459,5 +529,5 @@ def summarize_cases(results: list[dict[str, Any]]) -> str:
                 for k in ("k1", "c", "df"))
         lines.append(f"{case:<44} {len(runs):>4} {f'{ok}/{len(runs)}':>9} "
                      f"{_mean([r['mae_pct']['df'] for r in runs]):>6.2f} "
-                     f"{_mean([r['wall_s'] for r in runs]):>7.1f}  {stages} | {final}{cov}")
+                     f"{_mean([r['wall_s'] for r in runs]):>7.1f}  {stages} | {final}{cov}{missed}")
     return "\n".join(lines)

@@ -137,7 +137,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="benchmarks against known truth",
                            description="Run benchmarks with fixed seeds; print a table.")
     bench.add_argument("--suite", action="append", default=None,
-                       help="suite to run (repeatable): solver, ingest, paper, more, fleet, field, coverage "
+                       help="suite to run (repeatable): solver, ingest, paper, more, fleet, field, coverage, "
+                            "missed_damage "
                             "(default: solver, ingest and paper)")
     bench.add_argument("--all", action="store_true",
                        help="every suite: adds noise 0.1/10 mgal, a long-duration record and "
