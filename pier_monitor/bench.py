@@ -272,7 +272,7 @@ def bench_coverage(seeds: int = 20, members: int = 32, first_seed: int = 200,
     """Calibration of the intervals: field layouts on the E-Defense-style pier, ``seeds``
     seeds (from ``first_seed``: seeds the field suite does not use) with ``members``-member
     ensembles; ``coverage`` of every run says whether the 90 % intervals held the truth
-    (seeds 100-119 calibrated ``FieldSettings.interval_scale``; the default seeds check it)."""
+    (seeds 100-109 were used to choose the posterior scaling; the default seeds check it)."""
     out = []
     for layout, gnss in layouts:
         for shaking in shakings:

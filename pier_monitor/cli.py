@@ -141,8 +141,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "missed_damage "
                             "(default: solver, ingest and paper)")
     bench.add_argument("--all", action="store_true",
-                       help="every suite: adds noise 0.1/10 mgal, a long-duration record and "
-                            "the realistic-noise case")
+                       help="every suite (more: noise 0.1/10 mgal, a long-duration record, El "
+                            "Centro, the realistic-noise case; field, coverage, fleet take tens "
+                            "of minutes on a 2-core CPU)")
     bench.add_argument("--json", type=Path, help="write the results as JSON to this file")
 
     ident = sub.add_parser(

@@ -90,9 +90,7 @@ class FieldSettings:
         samples are far from independent.
     interval_scale : float
         Factor on the standard deviations of the linearised posterior that the ensemble is
-        drawn from: the residuals' weights (misfit floor, decorrelation) make the
-        chi-square only approximately a likelihood.  1.5 from the coverage suite's
-        calibration seeds (100-119), checked on others (200-219).
+        drawn from (1: as the residuals say; see :func:`_laplace_members`).
     prior_k1, prior_other, prior_shift : float
         Prior standard deviations about the design values: of log k1, of log (k2/k1) and
         log c, and of the yield-line offset (in units of fy).  They matter only where the
@@ -108,7 +106,7 @@ class FieldSettings:
     yield_share: float = 2.0
     misfit_floor: float = 0.01
     decorrelation: float = 20.0
-    interval_scale: float = 1.5
+    interval_scale: float = 1.0
     disp_decorrelation_s: float = 1.0
     prior_k1: float = 0.3
     prior_other: float = 1.0
@@ -469,7 +467,8 @@ def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
 
     The covariance is ``s² (JᵀJ)⁻¹`` of the residuals' Jacobian at the solution, with ``s²``
     the reduced chi-square when the fit is worse than its stated misfit floor (never less
-    than one), times ``scale²``; draws the linearisation does not hold for are replaced (see
+    than one), times the residuals' correlation length over the ``decorrelation`` the
+    weights assumed (where longer), times ``scale²``; draws the linearisation does not hold for are replaced (see
     the code).  Each member's springs and gains give its own angles and moments; a spring
     the fit found elastic stays elastic in every member.
     """
@@ -477,6 +476,19 @@ def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
     jac = np.asarray(sol.jac)
     dof = max(sol.fun.size - sol.x.size, 1)
     s2 = max(2.0 * float(sol.cost) / dof, 1.0)
+    # samples per independent residual, from the residuals' own autocorrelation (integrated
+    # up to its first zero); the weights assumed ``decorrelation`` samples
+    res = sol.fun[:pb.t_len * pb.acc.size].reshape(pb.t_len, pb.acc.size)
+    taus = []
+    for col in res.T:
+        col = col - col.mean()
+        spec = np.fft.rfft(col, 2 * col.size)
+        ac = np.fft.irfft(spec * np.conj(spec))[:col.size]
+        ac = ac / ac[0] if ac[0] > 0 else ac
+        neg = np.flatnonzero(ac < 0)
+        cut = neg[0] if neg.size else col.size
+        taus.append(1.0 + 2.0 * ac[1:cut].sum())
+    s2 *= max(float(np.mean(taus)) * pb.weight ** 2, 1.0)
     cov = s2 * scale ** 2 * np.linalg.pinv(jac.T @ jac)
     w, vec = np.linalg.eigh(0.5 * (cov + cov.T))
     root = vec * np.sqrt(np.clip(w, 0.0, None))

@@ -1,0 +1,81 @@
+"""The field reconstruction (``method="field"``) on synthetic field-network windows with
+imperfect sensors: springs, yield decisions, states, ensembles and the method choice."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from pier_monitor.bench import field_case
+from pier_monitor.core.errors import IdentificationError
+from pier_monitor.core.identify.states import classify_ductility
+from pier_monitor.pinn import PinnSettings, identify
+
+
+@pytest.fixture(scope="module")
+def accel_case():
+    return field_case("edefense", "accel", False, "strong", 0)
+
+
+def _true_df(truth, theta):
+    return np.abs(theta).max(axis=0) / truth.yield_angles
+
+
+def test_accelerometers_alone_give_the_yielded_springs_and_every_state(accel_case):
+    window, truth, theta = accel_case
+    assert window.coverage.acceleration.all() and not window.coverage.displacement.any()
+    run = identify(window, PinnSettings(seed=0))
+    result = run.result
+    df_true = _true_df(truth, theta)
+    yielded = df_true >= 1.0
+    assert [s.yielded for s in result.sections] == yielded.tolist()
+    k1 = np.array([s.k1 for s in result.sections])
+    assert np.abs(k1[yielded] / truth.k1[yielded] - 1).max() < 0.02
+    df = np.array([s.ductility_factor for s in result.sections])
+    np.testing.assert_allclose(df[yielded], df_true[yielded], rtol=0.03)
+    assert [s.state for s in result.sections] == [
+        classify_ductility(d).name.lower() for d in df_true]
+    # every stage recorded, the reconstruction's displacements reported for every level
+    assert list(run.stages) == ["increments", "springs", "joint"]
+    assert np.isfinite(run.reproduced.x).all() and run.reproduced.x.shape == window.x.shape
+
+
+def test_three_instrumented_levels_give_the_ductility_of_the_yielded_springs():
+    window, truth, theta = field_case("edefense", "sparse", False, "strong", 1)
+    assert window.coverage.acceleration.tolist() == [False, True, False, True]
+    result = identify(window, PinnSettings(seed=1)).result
+    df_true = _true_df(truth, theta)
+    df = np.array([s.ductility_factor for s in result.sections])
+    yielded = df_true >= 1.0
+    np.testing.assert_allclose(df[yielded], df_true[yielded], rtol=0.10)
+    assert [s.state for s in result.sections] == [
+        classify_ductility(d).name.lower() for d in df_true]
+
+
+def test_an_ensemble_gives_intervals_and_state_probabilities(accel_case):
+    window, truth, theta = accel_case
+    result = identify(window, PinnSettings(seed=0, members=8)).result
+    for sec in result.sections:
+        u = sec.uncertainty
+        assert u is not None and u.k1.lo < u.k1.hi and u.k1.std > 0
+        assert abs(sec.k1 - u.k1.mean) < 4 * u.k1.std
+        assert sum(u.p_state) == pytest.approx(1.0)
+    assert result.p_overall_state is not None
+
+
+def test_the_method_choice(accel_case):
+    window, _, _ = accel_case
+    with pytest.raises(IdentificationError, match="method 'pinn' needs a displacement"):
+        identify(window, PinnSettings(method="pinn"))
+    with pytest.raises(Exception, match="method"):
+        identify(window, PinnSettings(method="guess"))
+    # without an accelerometer at the top the moments are unknown: a clear error
+    cov = dataclasses.replace(window.coverage,
+                              acceleration=np.array([True, True, True, False]))
+    a, v, x = (getattr(window, q).copy() for q in ("a", "v", "x"))
+    for arr in (a, v, x):
+        arr[:, -1] = np.nan
+    with pytest.raises(IdentificationError, match="top level"):
+        identify(dataclasses.replace(window, coverage=cov, a=a, v=v, x=x), PinnSettings())
