@@ -30,7 +30,8 @@ from pier_monitor.core.model.ground_motion import GroundMotion, el_centro_1940, 
 from pier_monitor.core.model.solver import HAVE_NUMBA, Response, simulate
 from pier_monitor.core.resources import find_config_file
 from pier_monitor.core.synthetic.field import field_case_recording, field_pier, field_recording
-from pier_monitor.core.synthetic.shaking_table import RunSpec, Scenario, generate_recording
+from pier_monitor.core.synthetic.shaking_table import (RunSpec, Scenario, SyntheticRecording,
+                                                       generate_recording)
 from pier_monitor.core.synthetic.reference import (paper_case_window, realistic_case_window,
                                                    table1_model)
 from pier_monitor.fleet import FleetOptions, LocalPool, RayBackend, run_fleet
@@ -222,12 +223,20 @@ def field_case(pier: str, layout: str, gnss: bool, shaking: str, seed: int
                ) -> tuple[MeasuredWindow, SpringParameters, np.ndarray]:
     """One field case ingested as the product ingests it: ``(window, truth, θ_true)``,
     ``θ_true`` the true spring angles (T, N) at the window's samples."""
-    syn = field_case_recording(pier, layout, gnss, shaking, seed)
+    return _field_window(field_case_recording(pier, layout, gnss, shaking, seed),
+                         f"{pier}/{layout}/{shaking}/{seed}")
+
+
+def _field_window(syn: SyntheticRecording, name: str
+                  ) -> tuple[MeasuredWindow, SpringParameters, np.ndarray]:
+    """A one-run synthetic field recording ingested: its window with design values off the
+    truth by :data:`DESIGN_FACTORS`, the true parameters and the true angles (T, N) at the
+    window's samples."""
     windows, report = ingest_recording(syn.recording)
     if len(windows) != 1:
         reasons = "; ".join(o.failure or "" for o in report.outcomes)
-        raise InputDataError(f"field case {pier}/{layout}/{shaking}/{seed}: expected one "
-                             f"window, got {len(windows)} ({reasons})")
+        raise InputDataError(f"field case {name}: expected one window, got {len(windows)} "
+                             f"({reasons})")
     window = windows[0]
     run = syn.truth.runs[0]
     rate = syn.truth.sample_rate_hz
@@ -237,8 +246,7 @@ def field_case(pier: str, layout: str, gnss: bool, shaking: str, seed: int
     n = window.n_levels
     design = SpringParameters(*(getattr(run.params, k) * np.asarray(DESIGN_FACTORS[k][:n])
                                 for k in ("k1", "k2", "fy", "c")))
-    window = dataclasses.replace(window, design=design)
-    return window, run.params, theta
+    return dataclasses.replace(window, design=design), run.params, theta
 
 
 def bench_field(seeds: int = 5, piers: tuple[str, ...] = ("edefense", "table1"),
@@ -321,22 +329,12 @@ def bench_missed_damage(seeds: int = 5, members: int = 32,
             config = dataclasses.replace(base, sensors=tuple(
                 dataclasses.replace(sp, noise_rms=sp.noise_rms * factor) for sp in base.sensors))
             for seed in range(seeds):
-                syn = field_recording(config, "accel", scenario, seed=seed)
-                windows, _ = ingest_recording(syn.recording)
-                window = windows[0]
-                truth = syn.truth.runs[0]
-                rate = syn.truth.sample_rate_hz
-                first = int(round((window.start_time_ns - truth.start_ns) * rate / 1e9))
-                step = int(round(rate * window.dt))
-                theta = truth.response.theta[first:first + step * window.t.size:step]
-                design = SpringParameters(*(getattr(truth.params, k)
-                                            * np.asarray(DESIGN_FACTORS[k][:window.n_levels])
-                                            for k in ("k1", "k2", "fy", "c")))
-                window = dataclasses.replace(window, design=design)
+                name = f"missed_damage_df{target:g}_noise{factor:g}x"
+                window, params, theta = _field_window(
+                    field_recording(config, "accel", scenario, seed=seed), f"{name}/{seed}")
                 identified = identify(window, PinnSettings(seed=seed, members=members))
-                scored = score_run(f"missed_damage_df{target:g}_noise{factor:g}x", identified,
-                                   truth.params, theta, seed=seed, target_df=target,
-                                   noise_factor=factor, pga_mps2=pga)
+                scored = score_run(name, identified, params, theta, seed=seed,
+                                   target_df=target, noise_factor=factor, pga_mps2=pga)
                 base_spring = scored["springs"][0]
                 p_intact = base_spring["interval"]["p_state"][0]
                 scored["base_spring"] = {"state": base_spring["state"], "p_intact": p_intact,

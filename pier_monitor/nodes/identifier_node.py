@@ -150,12 +150,10 @@ class IdentifierNode(Node):
     # -- parameters -------------------------------------------------------------------------
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         values = {p.name: p.value for p in params}
-        if "device" in values and values["device"] not in DEVICES:
-            return SetParametersResult(successful=False, reason=(
-                f"device: {values['device']!r} is not one of {', '.join(DEVICES)}"))
-        if "method" in values and values["method"] not in METHODS:
-            return SetParametersResult(successful=False, reason=(
-                f"method: {values['method']!r} is not one of {', '.join(METHODS)}"))
+        for name, choices in (("device", DEVICES), ("method", METHODS)):
+            if name in values and values[name] not in choices:
+                return SetParametersResult(successful=False, reason=(
+                    f"{name}: {values[name]!r} is not one of {', '.join(choices)}"))
         if {"min_epochs", "max_epochs"} & set(values):
             lo = values.get("min_epochs", self._param("min_epochs"))
             hi = values.get("max_epochs", self._param("max_epochs"))

@@ -260,12 +260,23 @@ class _Problem:
                                                         c[i], p[i, 4] * fy[i])
         return theta, moment
 
-    def residual(self, p: np.ndarray, eps: np.ndarray) -> np.ndarray:
+    def held_elastic(self, p: np.ndarray, elastic: np.ndarray) -> np.ndarray:
+        """A copy of ``p`` (N, 5) with the springs of the mask ``elastic`` (N,) held
+        elastic: yield lines far above their largest moment, no offset."""
+        out = p.copy()
+        out[elastic, 2] = np.log(10.0 * self.f_max[elastic])
+        out[elastic, 4] = 0.0
+        return out
+
+    def residual(self, p: np.ndarray, eps: np.ndarray,
+                 theta: np.ndarray | None = None) -> np.ndarray:
         """Residuals in units of their standard deviations: the displacements of the
         measured levels (a misfit floor of ``misfit_floor`` of each level's signal; samples
         of smooth displacements are far from independent, hence the ``decorrelation``),
-        then the priors of the parameters and of the gains."""
-        theta = self.angles(p, self.moments(eps))[0]
+        then the priors of the parameters and of the gains.  ``theta``: the angles of
+        ``p`` and ``eps`` when already computed."""
+        if theta is None:
+            theta = self.angles(p, self.moments(eps))[0]
         x = theta @ self.b_inv.T
         xa = x[:, self.acc]
         pred = self.detrend(xa + eps * (xa + self.x_g[:, None]))
@@ -426,15 +437,11 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
     for i in range(n):
         if np.exp(p[i, 2]) * (1.0 - abs(p[i, 4])) >= pb.f_max[i]:
             continue  # the fitted yield lines are never reached
-        pe = p.copy()
-        pe[i, 2] = np.log(10.0 * pb.f_max[i])
-        pe[i, 4] = 0.0
+        pe = pb.held_elastic(p, np.arange(n) == i)
         cost_el = float(np.sum(pb.residual(pe, eps)[:n_acc] ** 2))
         gain = cost_el - base_cost
         yielded[i] = gain > settings.yield_chi2 and gain > settings.yield_share * base_cost
-    p_model = p.copy()
-    p_model[~yielded, 2] = np.log(10.0 * pb.f_max[~yielded])  # elastic springs stay elastic
-    p_model[~yielded, 4] = 0.0
+    p_model = pb.held_elastic(p, ~yielded)  # elastic springs stay elastic
     g_fit = pb.moments(eps)
     theta, moment = pb.angles(p_model, g_fit)
     # a spring that never yielded: fy only bounded below by its largest moment
@@ -496,31 +503,31 @@ def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
     # the linearisation fails far from the fit (a spring that only just yields: a low fy
     # draw makes its DF explode): a draw whose chi-square rises beyond what its Gaussian
     # allows (the 99.9 % point with as many degrees of freedom as parameters) is replaced
-    def cost(z: np.ndarray) -> float:
-        p = z[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
-        p[~yielded, 2] = np.log(10.0 * pb.f_max[~yielded])  # as the members use them
-        p[~yielded, 4] = 0.0
-        return float(np.sum(pb.residual(p, z[_COLUMNS * n:]) ** 2))
+    def member(z: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Chi-square, parameters (N, 5) as the members use them, moments g, angles and
+        spring moments (T, N) of a draw."""
+        p = pb.held_elastic(z[:_COLUMNS * n].reshape(n, _COLUMNS), ~yielded)
+        g = pb.moments(z[_COLUMNS * n:])
+        th, mo = pb.angles(p, g)
+        return float(np.sum(pb.residual(p, z[_COLUMNS * n:], th) ** 2)), p, g, th, mo
 
-    base = cost(sol.x)
+    first = member(sol.x)
     limit = s2 * scale ** 2 * stats.chi2.ppf(0.999, sol.x.size)
-    draws = [sol.x]
+    draws, accepted = [sol.x], [first[1:]]
     for _ in range(8 * members):
         if len(draws) == members:
             break
         z = np.clip(sol.x + root @ rng.standard_normal(sol.x.size), lo, hi)
-        if cost(z) - base <= limit:
+        cost, *rest = member(z)
+        if cost - first[0] <= limit:
             draws.append(z)
+            accepted.append(tuple(rest))
     draws = np.array(draws + [sol.x] * (members - len(draws)))
+    accepted += [first[1:]] * (members - len(accepted))
     params = np.empty((members, n, 4))
     theta = np.empty((members, pb.t_len, n))
     moment = np.empty_like(theta)
-    for m, z in enumerate(draws):
-        p = z[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
-        p[~yielded, 2] = np.log(10.0 * pb.f_max[~yielded])
-        p[~yielded, 4] = 0.0
-        g = pb.moments(z[_COLUMNS * n:])
-        theta[m], moment[m] = pb.angles(p, g)
+    for m, (p, g, theta[m], moment[m]) in enumerate(accepted):
         k1 = np.exp(p[:, 0])
         params[m] = np.column_stack([k1, k1 * np.exp(p[:, 1]), np.exp(p[:, 2]), np.exp(p[:, 3])])
         params[m, ~yielded, 2] = np.abs(g[:, ~yielded]).max(axis=0)
