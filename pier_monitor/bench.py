@@ -35,7 +35,7 @@ from pier_monitor.core.synthetic.shaking_table import (RunSpec, Scenario, Synthe
 from pier_monitor.core.synthetic.reference import (paper_case_window, realistic_case_window,
                                                    table1_model)
 from pier_monitor.fleet import FleetOptions, LocalPool, RayBackend, run_fleet
-from pier_monitor.pinn import IdentificationRun, PinnSettings, identify
+from pier_monitor.core.identify.methods import IdentificationRun, IdentifySettings, identify
 
 __all__ = ["bench_solver", "bench_ingest", "bench_paper", "bench_more", "bench_fleet",
            "run_identification_case",
@@ -152,11 +152,11 @@ def score_run(case: str, run: IdentificationRun, truth: SpringParameters,
 
 
 def score_identification(case: str, window: MeasuredWindow, truth: SpringParameters,
-                         resp: Response, settings: PinnSettings | None = None,
+                         resp: Response, settings: IdentifySettings | None = None,
                          **info: Any) -> dict[str, Any]:
     """Identify one window with known truth (``resp``: the true responses over the window)
     and score it (:func:`score_run`)."""
-    settings = settings or PinnSettings(seed=info.get("seed", 0))
+    settings = settings or IdentifySettings(seed=info.get("seed", 0))
     run = identify(window, settings)
     scored = score_run(case, run, truth, resp.theta, **info)
     scored.update(moments_measured=window.moments_measured, pairs=int(window.t.size - 1))
@@ -263,7 +263,7 @@ def bench_field(seeds: int = 5, piers: tuple[str, ...] = ("edefense", "table1"),
             for shaking in shakings:
                 for seed in range(pinn_seeds if method == "pinn" else seeds):
                     window, truth, theta = field_case(pier, layout, gnss, shaking, seed)
-                    run = identify(window, PinnSettings(seed=seed, method=method))
+                    run = identify(window, IdentifySettings(seed=seed, method=method))
                     name = (f"field_{pier}_{layout}{'+gnss' if gnss else ''}"
                             f"{'' if method == 'auto' else '_' + method}_{shaking}")
                     out.append(score_run(name, run, truth, theta, seed=seed, pier=pier,
@@ -286,7 +286,7 @@ def bench_coverage(seeds: int = 20, members: int = 32, first_seed: int = 200,
         for shaking in shakings:
             for seed in range(first_seed, first_seed + seeds):
                 window, truth, theta = field_case("edefense", layout, gnss, shaking, seed)
-                run = identify(window, PinnSettings(seed=seed, members=members))
+                run = identify(window, IdentifySettings(seed=seed, members=members))
                 name = f"coverage_edefense_{layout}{'+gnss' if gnss else ''}_{shaking}"
                 out.append(score_run(name, run, truth, theta, seed=seed, pier="edefense",
                                      layout=layout, gnss=gnss, shaking=shaking))
@@ -332,7 +332,7 @@ def bench_missed_damage(seeds: int = 5, members: int = 32,
                 name = f"missed_damage_df{target:g}_noise{factor:g}x"
                 window, params, theta = _field_window(
                     field_recording(config, "accel", scenario, seed=seed), f"{name}/{seed}")
-                identified = identify(window, PinnSettings(seed=seed, members=members))
+                identified = identify(window, IdentifySettings(seed=seed, members=members))
                 scored = score_run(name, identified, params, theta, seed=seed,
                                    target_df=target, noise_factor=factor, pga_mps2=pga)
                 base_spring = scored["springs"][0]
@@ -387,7 +387,7 @@ def bench_fleet(piers: int = 4, max_epochs: int = 100) -> list[dict[str, Any]]:
     start-up is timed apart, and its overhead per task is its wall time less the local
     pool's with as many workers, per event.
     """
-    settings = PinnSettings(device="cpu", seed=0, max_epochs=max_epochs, min_epochs=1)
+    settings = IdentifySettings(device="cpu", seed=0, max_epochs=max_epochs, min_epochs=1)
     options = FleetOptions(settings=settings, figures=False)
     out: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:

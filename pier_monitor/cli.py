@@ -39,7 +39,7 @@ from pier_monitor.core.model.solver import simulate
 from pier_monitor.core.synthetic.measurement import SensorImperfections
 from pier_monitor.core.synthetic.reference import table1_model
 from pier_monitor.fleet import FleetOptions, FleetProgress, LocalPool, RayBackend, run_fleet
-from pier_monitor.pinn import PinnSettings
+from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.events import EventOutcome
 from pier_monitor.pipeline import BagOutcome, identify_bag
 from pier_monitor.progress import TrainingProgress
@@ -225,7 +225,7 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
                         help="epoch limit of the training (default: the benchmarked setting)")
     parser.add_argument("--members", type=_positive_int, default=None,
                         help="ensemble members identified together, for the uncertainty of every "
-                             f"number (default {PinnSettings().members}; 1: no uncertainty)")
+                             f"number (default {IdentifySettings().members}; 1: no uncertainty)")
     parser.add_argument("--method", choices=("auto", "pinn", "field"), default="auto",
                         help="pinn: equation-error start and PINN (every level with a "
                              "displacement and an acceleration); field: the reconstruction "
@@ -235,9 +235,9 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
                         help="no training progress (a bar on a terminal, else a line every 10 s)")
 
 
-def _settings(args: argparse.Namespace) -> PinnSettings:
+def _settings(args: argparse.Namespace) -> IdentifySettings:
     """The training settings of the command line's options."""
-    settings = PinnSettings(device=args.device, seed=args.train_seed, method=args.method)
+    settings = IdentifySettings(device=args.device, seed=args.train_seed, method=args.method)
     if args.members is not None:
         settings.members = args.members
     if args.max_epochs is not None:

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pier_monitor.core.identify.checks import check_identification
-from pier_monitor.core.identify.damage import IdentificationResult, failed_result
+from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest.settings import EventIngest
 from pier_monitor.core.ingest.window import MeasuredWindow
-from pier_monitor.pinn import PinnSettings, Progress, identify
+from pier_monitor.core.identify.methods import IdentifySettings, Progress, identify
 from pier_monitor.report.results import ResultsPaths, write_results
 from pier_monitor.report.store import ResultsStore
 
@@ -75,7 +75,7 @@ class EventOutcome:
         return "unreliable" if self.result.unreliable_reasons else "identified"
 
 
-def identify_window(window: MeasuredWindow, settings: PinnSettings, store: ResultsStore, *,
+def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: ResultsStore, *,
                     progress: Callable[[Progress], None] | None = None,
                     figures: bool = True) -> EventOutcome:
     """Identify one window and write its results into the store.
@@ -83,7 +83,7 @@ def identify_window(window: MeasuredWindow, settings: PinnSettings, store: Resul
     1. The window is stored in its event directory before training starts.
     2. The baseline is :meth:`ResultsStore.baseline_for` (the earliest earlier successful
        result of the same pier; none: the design values).
-    3. The PINN trains (:func:`pier_monitor.pinn.identify`).
+    3. The method chosen identifies it (:func:`pier_monitor.core.identify.methods.identify`).
     4. The result checks itself
        (:func:`~pier_monitor.core.identify.checks.check_identification`): any reason makes
        it *unreliable* — every state ``unreliable``, never intact, suspicious or damaged.
@@ -97,7 +97,7 @@ def identify_window(window: MeasuredWindow, settings: PinnSettings, store: Resul
     ----------
     window : MeasuredWindow
         The event window.
-    settings : PinnSettings
+    settings : IdentifySettings
         Training settings.
     store : ResultsStore
         Where the window and the results go, and where the baseline comes from.
@@ -126,9 +126,8 @@ def identify_window(window: MeasuredWindow, settings: PinnSettings, store: Resul
     except TrainingStopped:
         raise
     except Exception as err:  # divergence, no GPU, out of memory: a failed result, not a crash
-        failed = failed_result(window, device=settings.device,
-                               message=f"identification failed: {type(err).__name__}: {err}")
-        store.record_failure(failed)
+        failed = store.fail_window(window, device=settings.device, message=(
+            f"identification failed: {type(err).__name__}: {err}"))
         return EventOutcome(window=window, result=failed, out_dir=out_dir,
                             window_file=window_file, paths=None)
     reasons = check_identification(run.result.params, run.reproduced, window)

@@ -25,13 +25,13 @@ from pathlib import Path
 
 from pier_monitor.bags import read_bag
 from pier_monitor.core.errors import BagError, IdentificationError, InputDataError
-from pier_monitor.core.identify.damage import failed_event_result, failed_result
+from pier_monitor.core.identify.damage import failed_event_result
 from pier_monitor.core.ingest import IngestReport, IngestSettings, ingest_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording
 from pier_monitor.core.ingest.settings import EventIngest, Finding
 from pier_monitor.core.model.config import PierConfig
 from pier_monitor.events import EventOutcome, identify_window
-from pier_monitor.pinn import PinnSettings, Progress
+from pier_monitor.core.identify.methods import IdentifySettings, Progress
 from pier_monitor.report.store import ResultsStore
 
 __all__ = ["BagOutcome", "identify_bag"]
@@ -62,7 +62,7 @@ class BagOutcome:
         return [ev for ev in self.events if ev.status in statuses]
 
 
-def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings | None = None,
+def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: IdentifySettings | None = None,
                  ingest_settings: IngestSettings | None = None,
                  config: PierConfig | None = None,
                  progress: Callable[[str, Progress], None] | None = None,
@@ -77,7 +77,7 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings
     out_dir : str or Path
         Results root (a :class:`~pier_monitor.report.store.ResultsStore`); created when
         missing.
-    settings : PinnSettings, optional
+    settings : IdentifySettings, optional
         Identification settings (default: the benchmarked ones).
     ingest_settings : IngestSettings, optional
     config : PierConfig, optional
@@ -111,7 +111,7 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings
         raise BagError(f"{bag}: the bag holds no samples of any sensor of the configuration's "
                        f"map ({len(recording.config.sensors)} sensors listed)")
     _, report = ingest_recording(recording, ingest_settings)
-    settings = settings or PinnSettings()
+    settings = settings or IdentifySettings()
     events = []
     for ingest in report.outcomes:
         if ingest.window is None:
@@ -125,16 +125,15 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: PinnSettings
                       bag_findings=recording.findings)
 
 
-def _identify(ingest: EventIngest, settings: PinnSettings, store: ResultsStore,
+def _identify(ingest: EventIngest, settings: IdentifySettings, store: ResultsStore,
               progress: Callable[[Progress], None] | None, figures: bool) -> EventOutcome:
     """One event with a window; a failure is recorded and returned, never raised."""
     window = ingest.window
     try:
         outcome = identify_window(window, settings, store, progress=progress, figures=figures)
     except (IdentificationError, InputDataError) as err:  # bad window or result: this event
-        failed = failed_result(window, device=settings.device,
-                               message=f"identification failed: {type(err).__name__}: {err}")
-        store.record_failure(failed)
+        failed = store.fail_window(window, device=settings.device, message=(
+            f"identification failed: {type(err).__name__}: {err}"))
         return EventOutcome(window=window, result=failed, out_dir=store.event_dir(
             window.event_id), window_file=store.window_file(window.event_id), paths=None,
             ingest=ingest)

@@ -15,7 +15,7 @@ from typing import TextIO
 
 from tqdm import tqdm
 
-from pier_monitor.pinn import Progress
+from pier_monitor.core.identify.methods import Progress
 
 __all__ = ["TrainingProgress"]
 

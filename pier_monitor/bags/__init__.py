@@ -6,13 +6,48 @@ Reads and writes with ``rosbags`` and ``mcap``; never imports rclpy.  See
 
 from __future__ import annotations
 
-from .errors import BagError
-from .reader import read_bag, read_bag_config
-from .synthetic_bag import (SyntheticBagInfo, default_edefense_config, truth_paths,
-                            write_synthetic_bag, write_synthetic_edefense_bag)
-from .types import KIND_CODES, SAMPLE_BLOCK, STRING, find_msg_dir, get_typestore
-from .writer import (BagSummary, bag_format, config_topic, iter_messages, sensor_topic,
-                     write_bag, write_mcap_messages)
+import importlib
+from typing import Any
+
+
+#: Where each public name lives: loaded on first use (PEP 562), so that importing one
+#: submodule does not load the others' heavy dependencies.
+_LAZY = {
+    "BagError": "errors",
+    "BagSummary": "writer",
+    "KIND_CODES": "types",
+    "SAMPLE_BLOCK": "types",
+    "STRING": "types",
+    "SyntheticBagInfo": "synthetic_bag",
+    "bag_format": "writer",
+    "config_topic": "writer",
+    "default_edefense_config": "synthetic_bag",
+    "find_msg_dir": "types",
+    "get_typestore": "types",
+    "iter_messages": "writer",
+    "read_bag": "reader",
+    "read_bag_config": "reader",
+    "sensor_topic": "writer",
+    "truth_paths": "synthetic_bag",
+    "write_bag": "writer",
+    "write_mcap_messages": "writer",
+    "write_synthetic_bag": "synthetic_bag",
+    "write_synthetic_edefense_bag": "synthetic_bag",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
 
 __all__ = [
     "BagError",

@@ -12,9 +12,10 @@
 3. Each event is identified by a task of its own (:func:`~pier_monitor.fleet.tasks.
    identify_event`, i.e. :func:`~pier_monitor.events.identify_window`).  Results are keyed
    by event id and written atomically by the store.  The baseline of an event is the
-   earliest earlier successful result of its pier, as for ``pier-monitor identify``: an
-   event is handed out once every bag of its pier is ingested and its pier's earlier events
-   have settled it (the first successful one is done, or all of them failed).  The first
+   store's (:meth:`~pier_monitor.report.store.ResultsStore.baseline_for`: the earliest
+   earlier reliable result of its pier), as for ``pier-monitor identify``: an event is
+   handed out once every bag of its pier is ingested and its pier's earlier events have
+   settled it (the first that may be a baseline is done, or all of them are done).  The first
    events of all piers run at once; the later ones follow — the same results as identifying
    each pier's bags one after another.
 4. A failed event is recorded with its reason (``failed.json``) and the fleet goes on; a
@@ -36,10 +37,10 @@ from typing import Any
 from pier_monitor.bags import read_bag_config
 from pier_monitor.core.errors import PierMonitorError, ReportError
 from pier_monitor.core.fileio import atomic_path
-from pier_monitor.core.identify.damage import IdentificationResult, failed_result
+from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest import IngestSettings
 from pier_monitor.core.ingest.window import MeasuredWindow
-from pier_monitor.pinn import PinnSettings
+from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.report.fleet import FleetPaths, FleetSummary, summarize_store, write_fleet_summary
 from pier_monitor.report.store import ResultsStore
 
@@ -60,7 +61,7 @@ class FleetOptions:
 
     Attributes
     ----------
-    settings : PinnSettings
+    settings : IdentifySettings
         Training settings of every event (those of ``pier-monitor identify``).
     ingest_settings : IngestSettings, optional
     figures : bool
@@ -76,7 +77,7 @@ class FleetOptions:
         Tests only: a worker fault to inject.
     """
 
-    settings: PinnSettings = field(default_factory=PinnSettings)
+    settings: IdentifySettings = field(default_factory=IdentifySettings)
     ingest_settings: IngestSettings | None = None
     figures: bool = True
     force: bool = False
@@ -156,26 +157,29 @@ class _Schedule:
         self.windows[window.event_id] = window
         self.status[window.event_id] = "pending"
 
-    def settle(self, event_id: str, success: bool) -> None:
-        self.status[event_id] = "ok" if success else "failed"
+    def settle(self, event_id: str, result: IdentificationResult) -> None:
+        """An event is done: ``baseline`` when later events may compare with it
+        (:meth:`ResultsStore.is_baseline`), else ``done``."""
+        self.status[event_id] = "baseline" if self.store.is_baseline(result) else "done"
 
     def _earlier(self, window: MeasuredWindow) -> list[tuple[int, str]]:
         pier = window.pier_id
         if pier not in self._prior:  # outcomes of earlier runs, read once
-            self._prior[pier] = [(r.window_start_ns, r.success) for r in
+            self._prior[pier] = [(r.window_start_ns, self.store.is_baseline(r)) for r in
                                  (*self.store.results(pier), *self.store.failures(pier))
                                  if r.event_id not in self.status]
-        out = [(start, "ok" if ok else "failed") for start, ok in self._prior[pier]]
+        out = [(start, "baseline" if ok else "done") for start, ok in self._prior[pier]]
         out += [(w.start_time_ns, self.status[eid]) for eid, w in self.windows.items()
                 if w.pier_id == pier and eid != window.event_id]
         return sorted(e for e in out if e[0] < window.start_time_ns)
 
     def _settled(self, window: MeasuredWindow) -> bool:
-        """Whether the baseline of ``window`` is known: an earlier success, or none left."""
+        """Whether the baseline of ``window`` is known: an earlier event that may be a
+        baseline, or none left pending (the store's rule, :meth:`ResultsStore.baseline_for`)."""
         for _, earlier in self._earlier(window):
-            if earlier == "ok":
+            if earlier == "baseline":
                 return True
-            if earlier != "failed":
+            if earlier != "done":
                 return False
         return True
 
@@ -311,12 +315,12 @@ def run_fleet(paths: Sequence[str | Path], out: str | Path, backend: Backend,
         if done is not None:
             result = done.result
         else:  # the task raised or its worker kept dying: a failure record, the fleet goes on
-            result = failed_result(window, device=options.settings.device,
-                                   message=f"identification task failed after {fin.attempts} "
-                                           f"attempt(s): {fin.error}")
-            store.record_failure(result)
+            result = store.fail_window(
+                window, device=options.settings.device,
+                message=f"identification task failed after {fin.attempts} attempt(s): "
+                        f"{fin.error}")
         results[event_id] = result
-        schedule.settle(event_id, result.success)
+        schedule.settle(event_id, result)
         if result.success:
             identified += 1
             if first_result_s is None:

@@ -11,6 +11,7 @@ command line never does), and it kills the process of the first attempt at one e
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import platform
 import time
@@ -23,7 +24,7 @@ from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest import IngestSettings, ingest_recording
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import identify_window
-from pier_monitor.pinn import PinnSettings, Progress, set_threads
+from pier_monitor.core.identify.methods import IdentifySettings, Progress
 from pier_monitor.report.store import ResultsStore
 
 __all__ = ["BagWindows", "EventDone", "EventTask", "IngestTask", "KillOnce", "identify_event",
@@ -97,7 +98,7 @@ class EventTask:
     ----------
     window : MeasuredWindow
         The event window.
-    settings : PinnSettings
+    settings : IdentifySettings
         Training settings (the same for every event of a fleet).
     results_root : Path
         The results store's root (a path every worker sees).
@@ -110,7 +111,7 @@ class EventTask:
     """
 
     window: MeasuredWindow
-    settings: PinnSettings
+    settings: IdentifySettings
     results_root: Path
     figures: bool = True
     threads: int = 1
@@ -153,11 +154,11 @@ def identify_event(task: EventTask) -> EventDone:
     done = store.outcome(event_id)
     if done is not None:
         return EventDone(done, worker, time.perf_counter() - started, reused=True)
-    set_threads(task.threads)
     progress = None
     if task.fault is not None:
         fault = task.fault
         progress = (lambda p: fault(event_id, p))  # noqa: E731 - binds the event
-    outcome = identify_window(task.window, task.settings, store, progress=progress,
+    settings = dataclasses.replace(task.settings, threads=task.threads)
+    outcome = identify_window(task.window, settings, store, progress=progress,
                               figures=task.figures)
     return EventDone(outcome.result, worker, time.perf_counter() - started)

@@ -30,7 +30,7 @@ from pier_monitor.report.diagnostics import diagnostics_fields
 from pier_monitor.report.markers import damage_markers_fields
 
 if TYPE_CHECKING:  # the type only: the ingest node does not load the PINN (torch)
-    from pier_monitor.pinn import Progress
+    from pier_monitor.core.identify.methods import Progress
 
 __all__ = [
     "MessageError",
@@ -263,7 +263,7 @@ def damage_state_msg(fields: dict[str, Any]) -> PierDamageState:
 
 
 def progress_msg(event_id: str, progress: Progress, stamp_ns: int) -> IdentificationProgress:
-    """IdentificationProgress of a :class:`pier_monitor.pinn.Progress`."""
+    """IdentificationProgress of a :class:`pier_monitor.core.identify.methods.Progress`."""
     msg = IdentificationProgress()
     msg.header.stamp = ns_to_time(stamp_ns)
     msg.event_id = event_id

@@ -45,11 +45,11 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from pier_monitor.core.identify.damage import IdentificationResult, failed_result
+from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import TrainingStopped, identify_window
 from pier_monitor.fleet import EventTask, RayBackend, identify_event
-from pier_monitor.pinn import PinnSettings, Progress, resolve_device
+from pier_monitor.core.identify.methods import IdentifySettings, Progress
 from pier_monitor.report.results import damage_state_fields
 from pier_monitor.report.store import ResultsStore
 
@@ -63,7 +63,7 @@ __all__ = ["IdentifierNode", "main", "DEVICES"]
 
 DEVICES = ("auto", "cpu", "cuda")
 METHODS = ("auto", "pinn", "field")
-#: Parameters that are PinnSettings fields of the same name.
+#: Parameters that are IdentifySettings fields of the same name.
 _SETTINGS = ("device", "seed", "max_epochs", "min_epochs", "patience", "pair_stride", "hidden",
              "layers", "lr_network", "lr_params", "members", "method")
 
@@ -73,7 +73,7 @@ class IdentifierNode(Node):
 
     def __init__(self, name: str = "identifier", **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        d = PinnSettings()  # defaults: the benchmarked settings, as offline
+        d = IdentifySettings()  # defaults: the benchmarked settings, as offline
         self._window_dir = Path(declare(
             self, "window_dir", "pier_monitor_data/windows", "Directory where the ingest node "
             "writes windows; scanned at start for windows without results", read_only=True))
@@ -137,8 +137,6 @@ class IdentifierNode(Node):
             "identifier_worker", self._identify, self._on_worker_error)
         self._window_sub = self.create_subscription(
             MainshockWindow, "mainshock_window", self._on_window, WINDOW_QOS)
-        if self._param("device") == "auto" and resolve_device("auto").type != "cuda":
-            self.get_logger().warning("device auto: no CUDA GPU found, training on the CPU")
         pending = self._store.pending(self._window_dir)
         for problem in pending.unreadable:
             self.get_logger().error(f"unreadable window, skipped: {problem}")
@@ -167,9 +165,9 @@ class IdentifierNode(Node):
     def _param(self, name: str) -> Any:
         return self.get_parameter(name).value if self.has_parameter(name) else None
 
-    def settings(self) -> PinnSettings:
-        """The PinnSettings of the current parameters."""
-        return PinnSettings(**{n: self._param(n) for n in _SETTINGS})
+    def settings(self) -> IdentifySettings:
+        """The IdentifySettings of the current parameters."""
+        return IdentifySettings(**{n: self._param(n) for n in _SETTINGS})
 
     # -- callbacks: only enqueue ------------------------------------------------------------
     def _on_window(self, msg: MainshockWindow) -> None:
@@ -214,7 +212,7 @@ class IdentifierNode(Node):
         self._diagnostics = damage_diagnostics(fields, self._now_ns())
         self._diag_pub.publish(self._diagnostics)
 
-    def _identify_on_ray(self, window: MeasuredWindow, settings: PinnSettings
+    def _identify_on_ray(self, window: MeasuredWindow, settings: IdentifySettings
                          ) -> IdentificationResult:
         """One window's identification as a Ray task; raises TrainingStopped at shutdown."""
         self._store.start_event(window)  # on disk before it leaves this machine
@@ -228,10 +226,8 @@ class IdentifierNode(Node):
             finished = self._ray.wait(timeout_s=0.5)
         if finished[0].value is not None:
             return finished[0].value.result
-        failed = failed_result(window, device=settings.device,
-                               message=f"Ray task failed: {finished[0].error}")
-        self._store.record_failure(failed)
-        return failed
+        return self._store.fail_window(window, device=settings.device,
+                                       message=f"Ray task failed: {finished[0].error}")
 
     def _progress(self, event_id: str) -> Callable[[Progress], None]:
         every = self._param("progress_every")

@@ -19,195 +19,32 @@ Parameters are optimised as log-values under Adam with projection (``k2 <= k1/2`
 also tells which springs yielded; ``k2``/``fy`` of springs that did not are held and
 flagged as not identifiable.
 """
-
 from __future__ import annotations
 
-import json
 import logging
 import time
-from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
 import numpy as np
 import torch
 
-from pier_monitor.core.model.config import SpringParameters
-from pier_monitor.core.identify.damage import IdentificationResult, build_sections, overall_state
+from pier_monitor.core.errors import IdentificationError
+from pier_monitor.core.identify.damage import capped_ductility
 from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments, yield_test
-from pier_monitor.core.identify.field import FieldSettings, fit_field
-from pier_monitor.core.errors import IdentificationError, InputDataError
-from pier_monitor.core.model.link_model import angle_matrix
-from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
-                                                    summarize_members)
+from pier_monitor.core.identify.methods import (TERMS, EnsembleDraws, IdentifySettings,
+                                                MethodOutput, Progress)
+from pier_monitor.core.identify.uncertainty import MemberResponses
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
+from pier_monitor.core.model.config import SpringParameters
+from pier_monitor.core.model.link_model import angle_matrix
 from .network import MemberNet
 from .physics import PairTensors, Physics
+from .threads import set_threads
 
-__all__ = ["PAPER_TERM_WEIGHTS", "DEFAULT_TERM_WEIGHTS", "PinnSettings", "Progress", "Reproduced",
-           "IdentificationRun", "identify", "resolve_device"]
+__all__ = ["resolve_device", "train_pinn"]
 
 log = logging.getLogger(__name__)
-
-TERMS = ("data", "eom", "newmark_a", "newmark_v", "newmark_x", "hysteresis")
-
-#: Relative weights of the physics terms, the paper's: α5 = 0.01 α4 (equation of motion),
-#: α6 = 1e-4 α1 (eq. 22), α7 = α2 and α8 = α3 (Newmark increments), α9 = 0.01 α4 (hysteresis).
-PAPER_TERM_WEIGHTS = {"eom": 1e-2, "newmark_a": 1e-4, "newmark_v": 1.0, "newmark_x": 1.0,
-                      "hysteresis": 1e-2}
-
-#: The default: the paper's weights without eq. 22.  Eq. 22 is eq. 21 at ``t+Δt`` with the
-#: velocity replaced by its trapezoid update (eq. 23); on data sampled at 100 Hz the trapezoid
-#: is off by about 1.5 % of max|Δẋ|, and eq. 22 multiplies that error by the damping matrix,
-#: so minimising it drags ``c`` towards zero (measured on the paper case without moments:
-#: c −2 % to −20 % with it, within 0.3 % without it).  Eqs. 21 and 23 keep what it says.
-DEFAULT_TERM_WEIGHTS = dict(PAPER_TERM_WEIGHTS, newmark_a=0.0)
-
-
-@dataclass
-class PinnSettings:
-    """Settings of one identification (defaults: the benchmarked configuration).
-
-    Attributes
-    ----------
-    pair_stride : int
-        Training pairs every ``pair_stride`` samples (``t_s = pair_stride · Δt``; the paper
-        used 0.1-0.5 s; 1 = every consecutive pair of the window).
-    arch, hidden, layers, n_fourier :
-        Network (see :class:`~pier_monitor.pinn.network.MemberNet`); ``n_fourier = 0``
-        picks ``min(32, P // 4)`` frequencies.
-    residual : bool
-        Network outputs are corrections to the measured data (in noise units).
-    max_epochs, min_epochs, warmup_epochs : int
-        Epoch limits; ``warmup_epochs`` data-only epochs with frozen parameters first.
-    lr_network, lr_params : float
-        Adam learning rates (parameters as log-values).
-    data_weight, physics_weight : float
-        ``w_d`` and ``w_p``.
-    term_weights : dict
-        Relative weights of the physics terms (default :data:`DEFAULT_TERM_WEIGHTS`;
-        :data:`PAPER_TERM_WEIGHTS` are the paper's).
-    param_rule : {"adam", "paper"}
-        Parameter update: Adam on log-parameters, or the paper's Fig. 6 rule.
-    paper_lr2 : float
-        The paper's ``lr2`` (step as a share of the initial value).
-    init : {"equation_error", "design"}
-        Starting parameters: the equation-error fit, or the window's design values.
-    patience, tol :
-        Early stopping: stop once no parameter moved by more than ``tol`` (relative) over
-        ``patience`` epochs.
-    device : {"auto", "cpu", "cuda"}
-    seed : int
-    yield_score : float
-        Threshold of the yield test (see :func:`~pier_monitor.core.identify.equation_error.yield_test`).
-    field_settings : FieldSettings
-        The reconstruction of windows from field networks (levels without a displacement
-        sensor, or without any sensor).
-    members : int
-        Members of the ensemble trained together (1: one identification, no uncertainty).
-        Member 0 trains on the measured window from the start; the others on copies
-        perturbed as the noise model allows (:mod:`pier_monitor.core.identify.ensemble`),
-        each from the start scattered by ``member_start_sd`` (a multi-start).
-    member_start_sd : float
-        Relative spread of the members' starting parameters (log-normal).
-    method : {"auto", "pinn", "field"}
-        ``pinn``: the equation-error start and the PINN, for windows with a displacement
-        and an acceleration at every level (a shaking table with calibrated sensors: the
-        most accurate there); ``field``: the reconstruction from the accelerations
-        (:func:`~pier_monitor.core.identify.field.fit_field`, measured displacements used
-        where there are any), for windows that start at rest; it tolerates uncalibrated
-        gains (about 1 %) and misaligned sensors, which bias the equation-error start.
-        ``auto``: ``pinn`` with every level fully measured, else ``field``.
-    """
-
-    pair_stride: int = 1
-    arch: str = "fourier"
-    hidden: int = 32
-    layers: int = 2
-    n_fourier: int = 0
-    residual: bool = True
-    max_epochs: int = 3000
-    min_epochs: int = 300
-    warmup_epochs: int = 0
-    lr_network: float = 1e-3
-    lr_params: float = 1e-3
-    data_weight: float = 1.0
-    physics_weight: float = 1e-2
-    term_weights: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_TERM_WEIGHTS))
-    param_rule: str = "adam"
-    paper_lr2: float = 1e-3
-    init: str = "equation_error"
-    patience: int = 200
-    tol: float = 2e-5
-    device: str = "auto"
-    seed: int = 0
-    yield_score: float = 50.0
-    field_settings: FieldSettings = field(default_factory=FieldSettings)
-    members: int = 1
-    method: str = "auto"
-    member_start_sd: float = 0.02
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain JSON form (lists for tuples), as a result records it."""
-        return json.loads(json.dumps(asdict(self)))
-
-    def validate(self) -> None:
-        """Raise :class:`InputDataError` naming the first bad setting."""
-        checks = [
-            ("pair_stride", self.pair_stride >= 1),
-            ("arch", self.arch in ("fourier", "paper")),
-            ("hidden", self.hidden >= 1), ("layers", self.layers >= 1),
-            ("n_fourier", self.n_fourier >= 0),
-            ("max_epochs", self.max_epochs >= 1),
-            ("min_epochs", 0 <= self.min_epochs <= self.max_epochs),
-            ("warmup_epochs", self.warmup_epochs >= 0),
-            ("lr_network", self.lr_network > 0), ("lr_params", self.lr_params > 0),
-            ("data_weight", self.data_weight > 0), ("physics_weight", self.physics_weight > 0),
-            ("term_weights", set(self.term_weights) <= set(TERMS[1:])
-             and all(v >= 0 for v in self.term_weights.values())),
-            ("param_rule", self.param_rule in ("adam", "paper")),
-            ("paper_lr2", self.paper_lr2 > 0),
-            ("init", self.init in ("equation_error", "design")),
-            ("patience", self.patience >= 1), ("tol", self.tol > 0),
-            ("device", self.device in ("auto", "cpu", "cuda")),
-            ("members", self.members >= 1),
-            ("method", self.method in ("auto", "pinn", "field")),
-            ("member_start_sd", self.member_start_sd >= 0),
-            ("param_rule", self.param_rule == "adam" or self.members == 1),
-        ]
-        for name, ok in checks:
-            if not ok:
-                raise InputDataError(f"PINN setting {name}: invalid value {getattr(self, name)!r}")
-
-
-@dataclass(frozen=True)
-class Progress:
-    """What the trainer reports to the callback after each epoch."""
-
-    epoch: int
-    max_epochs: int
-    loss: float
-    terms: dict[str, float]
-    k1: np.ndarray
-    k2: np.ndarray
-    fy: np.ndarray
-    c: np.ndarray
-    elapsed_s: float
-
-
-@dataclass(frozen=True)
-class IdentificationRun:
-    """Everything one identification produced."""
-
-    result: IdentificationResult
-    reproduced: Reproduced
-    initial: SpringParameters
-    history: dict[str, list[Any]] = field(default_factory=dict)
-    #: parameters after each stage of the identification, in order (the last is the result)
-    stages: dict[str, SpringParameters] = field(default_factory=dict)
-    #: the members' reproduced histories (M, T, N) when an ensemble was trained
-    members: MemberResponses | None = None
-
 
 def resolve_device(name: str) -> torch.device:
     """``auto`` → CUDA when present, else CPU (with a log line); ``cuda`` without a GPU raises."""
@@ -220,8 +57,7 @@ def resolve_device(name: str) -> torch.device:
     log.info("no CUDA GPU found: training on the CPU")
     return torch.device("cpu")
 
-
-class _Problem:
+class _PinnProblem:
     """Tensors and loss of one window's members on one device.
 
     Member ``m`` trains on ``windows[m]`` (member 0: the measured window; the others its
@@ -230,7 +66,7 @@ class _Problem:
     errors-in-variables variances come from the measured window and are shared.
     """
 
-    def __init__(self, windows: list[MeasuredWindow], settings: PinnSettings,
+    def __init__(self, windows: list[MeasuredWindow], settings: IdentifySettings,
                  device: torch.device, init: SpringParameters) -> None:
         window = windows[0]
         self.window = window
@@ -383,7 +219,7 @@ def _project(logp: torch.Tensor, ref: torch.Tensor, f_cap: torch.Tensor) -> None
         logp[:, 2] = torch.log(torch.minimum(fy, f_cap) / ref[:, 2])
 
 
-def _paper_rule_step(problem: _Problem, pairs: PairTensors, tg: dict[str, torch.Tensor],
+def _paper_rule_step(problem: _PinnProblem, pairs: PairTensors, tg: dict[str, torch.Tensor],
                      k: torch.Tensor, k_in: torch.Tensor, lr2: float,
                      free: torch.Tensor) -> torch.Tensor:
     """The paper's Fig. 6 rule on all 4N parameters at once; returns the new values (4, N).
@@ -429,87 +265,108 @@ def _paper_rule_step(problem: _Problem, pairs: PairTensors, tg: dict[str, torch.
     ok[2] &= (new[2] <= problem.f_cap) | (step[2] < 0)
     return torch.where(ok, new, k)
 
+def train_pinn(window: MeasuredWindow, settings: IdentifySettings,
+               callback: Callable[[Progress], None] | None = None) -> MethodOutput:
+    """Identify ``k1, k2, fy, c`` of every spring of a fully measured window with the PINN.
 
-def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
-             callback: Callable[[Progress], None] | None = None,
-             baseline_k1: np.ndarray | None = None) -> IdentificationRun:
-    """Identify ``k1, k2, fy, c`` of every spring of a measured window with the PINN.
+    The method :class:`~pier_monitor.core.identify.methods.PinnMethod` behind
+    :func:`~pier_monitor.core.identify.methods.identify`, which assembles the result.
 
     Parameters
     ----------
     window : MeasuredWindow
-        The event window (relative responses, foundation acceleration, design values).
-    settings : PinnSettings, optional
-        Training settings; the defaults are the benchmarked ones.
+        The event window, a displacement and an acceleration at every level.
+    settings : IdentifySettings
+        Training settings (validated by the caller).
     callback : callable, optional
         Called with a :class:`Progress` after every epoch.
-    baseline_k1 : ndarray, shape (N,), optional
-        Reference ``k1`` for the change in the results (design values when omitted).
 
     Raises
     ------
     IdentificationError
         When the loss becomes NaN/Inf, or ``device="cuda"`` without a GPU.
     """
-    settings = settings or PinnSettings()
-    settings.validate()
-    device = resolve_device(settings.device)
     t_start = time.perf_counter()
+    if settings.threads:
+        set_threads(settings.threads)
+    device = resolve_device(settings.device)
     torch.manual_seed(settings.seed)
     np.random.seed(settings.seed)
-    geometry = window.geometry
-    if settings.method == "pinn" and not window.coverage.is_full:
-        raise IdentificationError(
-            f"window {window.event_id}: method 'pinn' needs a displacement and an acceleration "
-            f"at every level; this window's layout is {window.coverage.layout}")
-    if settings.method == "field" or not window.coverage.is_full:
-        return _identify_field(window, settings, baseline_k1, t_start, device)
-
-    # starting point
     if settings.init == "equation_error":
-        fit = fit_equation_error(geometry, window.x, window.v, window.a, window.ag, window.design,
-                                 moments=window.moments, yield_score=settings.yield_score)
+        fit = fit_equation_error(window.geometry, window.x, window.v, window.a, window.ag,
+                                 window.design, moments=window.moments,
+                                 yield_score=settings.yield_score)
         init, yielded0 = fit.params, fit.yielded
     else:
         init, yielded0 = window.design, np.ones(window.n_levels, dtype=bool)
-
     windows = member_windows(window, settings.members, seed=settings.seed)
-    problem = _Problem(windows, settings, device, init)
-    members = problem.members
-    n = window.n_levels
-    n_pairs = problem.idx0.size
-    n_fourier = settings.n_fourier or int(min(32, max(8, n_pairs // 4)))
-    net = MemberNet(members, 8 * n, settings.arch, settings.hidden, settings.layers,
-                    n_fourier).to(device=device)
+    problem = _PinnProblem(windows, settings, device, init)
+    n_fourier = settings.n_fourier or int(min(32, max(8, problem.idx0.size // 4)))
+    net = MemberNet(problem.members, 8 * window.n_levels, settings.arch, settings.hidden,
+                    settings.layers, n_fourier).to(device=device)
+    ref, free = _start(problem, init, yielded0)
+    logp = torch.zeros_like(ref, requires_grad=True)
+    _project(logp, ref, problem.f_cap)
+    epoch, loss_val, history = _train(problem, net, logp, ref, free, callback, t_start)
+    return _reproduce(problem, net, logp, ref, init, yielded0, epoch, loss_val, history)
+
+
+def _start(problem: _PinnProblem, init: SpringParameters, yielded0: np.ndarray
+           ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Every member's starting parameters ``ref`` (M, 4, N) and the mask of the free ones.
+
+    A spring that did not yield is held elastic: its ``fy`` goes to the cap, far from the
+    moments, so the clip of the hysteresis rule never acts on noise at the peaks (a held
+    ``fy`` equal to the largest moment would clip there and drag ``k1``); its ``k2`` and
+    ``fy`` are held.  Member 0 starts from the start, the others a multi-start spread around it.
+    """
+    settings, device, n = problem.settings, problem.device, problem.n
     start = torch.as_tensor(np.stack([init.k1, init.k2, init.fy, init.c]), dtype=torch.float64,
                             device=device)
     start = torch.where(start > 0, start, torch.ones_like(start))
-    # a spring that did not yield is held elastic: its fy goes to the cap, far from the
-    # moments, so the clip of the hysteresis rule never acts on noise at the peaks (a held
-    # fy equal to the largest moment would clip there and drag k1)
     held = torch.as_tensor(~yielded0, device=device)
     start[2] = torch.where(held, problem.f_cap, start[2])
-    # every member starts from the start, the others a multi-start spread around it
-    spread = torch.ones(members, 4, n, dtype=torch.float64, device=device)
-    if members > 1:
+    spread = torch.ones(problem.members, 4, n, dtype=torch.float64, device=device)
+    if problem.members > 1:
         gen = torch.Generator(device="cpu").manual_seed(settings.seed + 1)
-        draw = torch.randn(members - 1, 4, n, generator=gen, dtype=torch.float64)
+        draw = torch.randn(problem.members - 1, 4, n, generator=gen, dtype=torch.float64)
         spread[1:] = torch.exp(settings.member_start_sd * draw).to(device)
     ref = start * spread
-    logp = torch.zeros_like(ref, requires_grad=True)
-    # held parameters: k2, fy of springs that did not yield
     free = torch.ones_like(ref)
     free[:, 1] = torch.where(held, 0.0, 1.0)
     free[:, 2] = torch.where(held, 0.0, 1.0)
-    _project(logp, ref, problem.f_cap)
+    return ref, free
+
+
+def _paper_rule_update(problem: _PinnProblem, logp: torch.Tensor, ref: torch.Tensor,
+                       free: torch.Tensor, pairs: PairTensors,
+                       tg: dict[str, torch.Tensor]) -> None:
+    """One step of the paper's Fig. 6 rule on member 0's parameters, in place."""
+    settings, window = problem.settings, problem.window
+    with torch.no_grad():
+        k_now = torch.stack(_params_from_log(logp[0], ref[0]))
+        k_in = ref[0] if settings.init == "design" else torch.as_tensor(
+            np.stack([window.design.k1, window.design.k2, window.design.fy,
+                      window.design.c]), dtype=torch.float64, device=problem.device)
+        new = _paper_rule_step(problem, _detach(pairs), _detach_dict(tg), k_now, k_in,
+                               settings.paper_lr2, free[0])
+        logp[0].copy_(torch.log(new / ref[0]))
+
+
+def _train(problem: _PinnProblem, net: MemberNet, logp: torch.Tensor, ref: torch.Tensor,
+           free: torch.Tensor, callback: Callable[[Progress], None] | None, t_start: float
+           ) -> tuple[int, float, dict[str, list[Any]]]:
+    """The training loop; returns the last epoch, its loss and the history.  Stops once no
+    free parameter of any member moved by more than ``tol`` over ``patience`` epochs."""
+    settings, n = problem.settings, problem.n
     opt_net = torch.optim.Adam(net.parameters(), lr=settings.lr_network)
     opt_par = torch.optim.Adam([logp], lr=settings.lr_params)
     history: dict[str, list[Any]] = {k: [] for k in ("loss", *TERMS)}
     history["params"] = []
     recent: list[torch.Tensor] = []
-    epoch = 0
-    loss_val = float("nan")
-    for epoch in range(1, settings.max_epochs + settings.warmup_epochs + 1):
+    epoch, loss_val = 0, float("nan")
+    total_epochs = settings.max_epochs + settings.warmup_epochs
+    for epoch in range(1, total_epochs + 1):
         warm = epoch <= settings.warmup_epochs
         k1, k2, fy, c = _params_from_log(logp, ref)
         pairs, tg = problem.outputs(net, c, problem.tau, None)
@@ -520,20 +377,12 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
         opt_par.zero_grad()
         loss.backward()
         opt_net.step()
-        if not warm:
-            if settings.param_rule == "adam":
-                logp.grad.mul_(free)
-                opt_par.step()
-                _project(logp, ref, problem.f_cap)
-            else:
-                with torch.no_grad():
-                    k_now = torch.stack(_params_from_log(logp[0], ref[0]))
-                    k_in = ref[0] if settings.init == "design" else torch.as_tensor(
-                        np.stack([window.design.k1, window.design.k2, window.design.fy,
-                                  window.design.c]), dtype=torch.float64, device=device)
-                    new = _paper_rule_step(problem, _detach(pairs), _detach_dict(tg), k_now,
-                                           k_in, settings.paper_lr2, free[0])
-                    logp[0].copy_(torch.log(new / ref[0]))
+        if not warm and settings.param_rule == "adam":
+            logp.grad.mul_(free)
+            opt_par.step()
+            _project(logp, ref, problem.f_cap)
+        elif not warm:
+            _paper_rule_update(problem, logp, ref, free, pairs, tg)
         with torch.no_grad():
             k_cur = torch.stack(_params_from_log(logp, ref), dim=1)  # (M, 4, N)
             # one transfer per epoch: member 0's loss terms and parameters
@@ -551,8 +400,7 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
         k_np = report[1 + len(terms):].reshape(4, n)
         history["params"].append(k_np.tolist())
         if callback is not None:
-            callback(Progress(epoch=epoch, max_epochs=settings.max_epochs + settings.warmup_epochs,
-                              loss=loss_val,
+            callback(Progress(epoch=epoch, max_epochs=total_epochs, loss=loss_val,
                               terms={k: float(v) for k, v in zip(terms, report[1:])},
                               k1=k_np[0], k2=k_np[1], fy=k_np[2], c=k_np[3],
                               elapsed_s=time.perf_counter() - t_start))
@@ -564,8 +412,14 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
             moved = float((torch.abs(recent[-1] / recent[0] - 1.0) * free).max())
             if epoch - settings.warmup_epochs >= settings.min_epochs and moved < settings.tol:
                 break
+    return epoch, loss_val, history
 
-    # reproduce responses over the whole window and evaluate the damage indices
+
+def _reproduce(problem: _PinnProblem, net: MemberNet, logp: torch.Tensor, ref: torch.Tensor,
+               init: SpringParameters, yielded0: np.ndarray, epoch: int, loss_val: float,
+               history: dict[str, list[Any]]) -> MethodOutput:
+    """Responses over the whole window, every member's yield test, parameters and DF."""
+    settings, window, n, members = problem.settings, problem.window, problem.n, problem.members
     with torch.no_grad():
         net.eval()
         k1, k2, fy, c = _params_from_log(logp, ref)
@@ -575,8 +429,7 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
                                    dim=1).cpu().numpy()
         rep = {q: take(q) for q in ("a", "v", "x", "f")}  # (M, T, N)
         member_params = np.stack([t.cpu().numpy() for t in (k1, k2, fy, c)], axis=-1)
-    b = angle_matrix(geometry.section_heights_m)
-    theta = rep["x"] @ b.T  # (M, T, N)
+    theta = rep["x"] @ angle_matrix(window.geometry.section_heights_m).T  # (M, T, N)
     yielded = np.array([[yielded0[i] and yield_test(
         theta[m, :, i], rep["f"][m, :, i], member_params[m, i, 0], member_params[m, i, 1],
         member_params[m, i, 2], settings.yield_score)[0] for i in range(n)]
@@ -585,82 +438,21 @@ def identify(window: MeasuredWindow, settings: PinnSettings | None = None,
     f_max = np.abs(rep["f"]).max(axis=1)
     member_params[..., 2] = np.where(yielded, member_params[..., 2], f_max)
     params = SpringParameters(*(member_params[0, :, j] for j in range(4)))
-    ductility = np.abs(theta).max(axis=1) / (member_params[..., 2] / member_params[..., 0])
-    ductility = np.where(yielded, ductility, np.minimum(ductility, 1.0))
-    uncertainty = None
+    draws = member_responses = None
     if members > 1:
-        kept = _converged_members(member_params, ductility)
-        masked = member_params.copy()
-        masked[..., 1:3] = np.where(yielded[..., None], masked[..., 1:3], np.nan)
-        uncertainty = summarize_members(masked[kept], ductility[kept], yielded[kept])
-    sections = build_sections(geometry, params, theta[0], yielded[0],
-                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1,
-                              uncertainty=uncertainty)
-    wall = time.perf_counter() - t_start
-    result = IdentificationResult(
-        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
-        overall_state=overall_state(sections), window_start_s=float(window.t[0]),
-        window_duration_s=window.duration_s, epochs=epoch, final_loss=loss_val,
-        wall_time_s=wall, device=str(device), success=True,
-        message=(f"trained {epoch} epochs on {n_pairs} pairs"
-                 + (f", {members} members" if members > 1 else "")),
-        settings=settings.as_dict(),
-        history={k: v for k, v in history.items() if k != "params"},
-        p_overall_state=(overall_state_probabilities(ductility, yielded) if members > 1
-                         else None))
+        ductility = capped_ductility(np.abs(theta).max(axis=1),
+                                     member_params[..., 2] / member_params[..., 0], yielded)
+        draws = EnsembleDraws(params=member_params, ductility=ductility, yielded=yielded)
+        member_responses = MemberResponses(theta=theta, moment=rep["f"], x=rep["x"],
+                                           a=rep["a"])
     reproduced = Reproduced(t=window.t.copy(), a=rep["a"][0], v=rep["v"][0], x=rep["x"][0],
                             theta=theta[0], moment=rep["f"][0])
-    member_responses = None if members == 1 else MemberResponses(
-        theta=theta, moment=rep["f"], x=rep["x"], a=rep["a"])
-    return IdentificationRun(result=result, reproduced=reproduced, initial=init,
-                             history=history, stages={"equation_error": init, "pinn": params},
-                             members=member_responses)
-
-
-def _converged_members(params: np.ndarray, ductility: np.ndarray) -> np.ndarray:
-    """Members whose parameters and ductility factors are finite and positive, (M,) bool."""
-    return (np.isfinite(params[..., [0, 3]]).all(axis=(1, 2))
-            & (params[..., [0, 3]] > 0).all(axis=(1, 2))
-            & np.isfinite(ductility).all(axis=1) & (ductility > 0).all(axis=1))
-
-
-def _identify_field(window: MeasuredWindow, settings: PinnSettings,
-                    baseline_k1: np.ndarray | None, t_start: float,
-                    device: torch.device) -> IdentificationRun:
-    """A window from a field network: the springs and the unmeasured motion reconstructed
-    from the physics (:func:`~pier_monitor.core.identify.field.fit_field`)."""
-    fit = fit_field(window, settings.field_settings, members=settings.members,
-                    seed=settings.seed)
-    params = fit.params
-    uncertainty = p_overall = member_responses = None
-    if fit.members is not None:
-        ens = fit.members
-        masked = ens.params.copy()
-        masked[..., 1:3] = np.where(ens.yielded[..., None], masked[..., 1:3], np.nan)
-        uncertainty = summarize_members(masked, ens.ductility, ens.yielded)
-        p_overall = overall_state_probabilities(ens.ductility, ens.yielded)
-        x_members = ens.theta @ np.linalg.inv(angle_matrix(window.geometry.section_heights_m)).T
-        member_responses = MemberResponses(theta=ens.theta, moment=ens.moment, x=x_members)
-    sections = build_sections(window.geometry, params, fit.theta, fit.yielded,
-                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1,
-                              uncertainty=uncertainty)
-    wall = time.perf_counter() - t_start
-    stage_names = list(fit.stages)
-    result = IdentificationResult(
-        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
-        overall_state=overall_state(sections), window_start_s=float(window.t[0]),
-        window_duration_s=window.duration_s, epochs=0, final_loss=float("nan"),
-        wall_time_s=wall, device=str(device), success=True,
-        message=(f"{window.coverage.layout} layout: springs reconstructed from the physics "
-                 f"({', '.join(stage_names)})"
-                 + (f", {settings.members} members" if fit.members is not None else "")),
-        settings=settings.as_dict(), history={}, p_overall_state=p_overall)
-    a = np.where(window.coverage.acceleration, window.a, np.gradient(fit.v, window.dt, axis=0))
-    reproduced = Reproduced(t=window.t.copy(), a=a, v=fit.v, x=fit.x, theta=fit.theta,
-                            moment=fit.moment)
-    return IdentificationRun(result=result, reproduced=reproduced,
-                             initial=fit.stages[stage_names[0]], history={},
-                             stages=dict(fit.stages), members=member_responses)
+    message = (f"trained {epoch} epochs on {problem.idx0.size} pairs"
+               + (f", {members} members" if members > 1 else ""))
+    return MethodOutput(params=params, yielded=yielded[0], reproduced=reproduced, initial=init,
+                        stages={"equation_error": init, "pinn": params}, draws=draws,
+                        member_responses=member_responses, device=str(problem.device),
+                        message=message, epochs=epoch, final_loss=loss_val, history=history)
 
 
 def _detach(p: PairTensors) -> PairTensors:

@@ -8,17 +8,57 @@ can run wherever results are read.  Figures take an identification run by its at
 
 from __future__ import annotations
 
+import importlib
+from typing import Any
+
 from pier_monitor.core.errors import ReportError
 
-from .compare import (COMPARE_JSON, COMPARE_PNG, Comparison, ComparisonPaths, SectionChange,
-                      compare_results, write_comparison)
-from .figures import (FIGURE_DPI, PROFILE_FIGSIZE_IN, RunLike, plot_hysteresis, plot_profile,
-                      plot_responses, plot_training)
-from .results import (DAMAGE_STATE_TYPE, RESULT_JSON, ResultsPaths, WrittenResult,
-                      damage_state_fields, damage_state_message, damage_state_topic, load_result,
-                      prepare_result, write_damage_state_mcap, write_results)
-from .store import ResultsStore
-from .tables import uncertainty_table
+
+#: Where each public name lives: loaded on first use (PEP 562), so that importing one
+#: submodule does not load the others' heavy dependencies.
+_LAZY = {
+    "COMPARE_JSON": "compare",
+    "COMPARE_PNG": "compare",
+    "Comparison": "compare",
+    "ComparisonPaths": "compare",
+    "DAMAGE_STATE_TYPE": "results",
+    "FIGURE_DPI": "figures",
+    "PROFILE_FIGSIZE_IN": "figures",
+    "RESULT_JSON": "results",
+    "ResultsPaths": "results",
+    "ResultsStore": "store",
+    "RunLike": "figures",
+    "SectionChange": "compare",
+    "WrittenResult": "results",
+    "compare_results": "compare",
+    "damage_state_fields": "results",
+    "damage_state_message": "results",
+    "damage_state_topic": "results",
+    "load_result": "results",
+    "plot_hysteresis": "figures",
+    "plot_profile": "figures",
+    "plot_responses": "figures",
+    "plot_training": "figures",
+    "prepare_result": "results",
+    "uncertainty_table": "tables",
+    "write_comparison": "compare",
+    "write_damage_state_mcap": "results",
+    "write_results": "results",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
 
 __all__ = [
     "COMPARE_JSON",

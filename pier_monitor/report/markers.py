@@ -26,8 +26,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from matplotlib.colors import to_rgba
-
 from pier_monitor.core.identify.damage import DamageState
 
 from ._common import STATE_COLORS, format_df
@@ -47,6 +45,11 @@ _GAP_SHARE = 0.04  # gap between two cylinders / section height
 _TEXT_SHARE = 0.05  # text height / pier height
 
 
+def _rgba(hex_colour: str) -> tuple[float, float, float, float]:
+    """``#rrggbb`` as red, green, blue, alpha in [0, 1] (opaque), without Matplotlib."""
+    return (*(int(hex_colour[k:k + 2], 16) / 255.0 for k in (1, 3, 5)), 1.0)
+
+
 def damage_markers_topic(pier_id: str) -> str:
     """Absolute topic of a pier's markers: ``/<pier_id>/damage_markers``."""
     return f"/{pier_id}/damage_markers"
@@ -54,7 +57,7 @@ def damage_markers_topic(pier_id: str) -> str:
 
 def state_rgba(state: DamageState | int) -> dict[str, float]:
     """``std_msgs/ColorRGBA`` fields of a section state (alpha 1)."""
-    r, g, b, a = to_rgba(STATE_COLORS[DamageState(state).name.lower()])
+    r, g, b, a = _rgba(STATE_COLORS[DamageState(state).name.lower()])
     return {"r": float(r), "g": float(g), "b": float(b), "a": float(a)}
 
 

@@ -325,7 +325,7 @@ def write_results(run: RunLike, window: MeasuredWindow, out_dir: str | Path, *,
     Parameters
     ----------
     run : IdentificationRun
-        What :func:`pier_monitor.pinn.identify` returned for ``window``.
+        What :func:`pier_monitor.core.identify.methods.identify` returned for ``window``.
     window : MeasuredWindow
         The measured window (for the responses figure, the design values and the absolute
         start time).

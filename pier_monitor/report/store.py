@@ -31,7 +31,7 @@ from pathlib import Path
 
 from pier_monitor.core.errors import InputDataError, ReportError
 from pier_monitor.core.fileio import remove_temporaries
-from pier_monitor.core.identify.damage import IdentificationResult
+from pier_monitor.core.identify.damage import IdentificationResult, failed_result
 from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id, safe_child
 from pier_monitor.core.ingest.window import MeasuredWindow, load_window, save_window
 
@@ -144,6 +144,23 @@ class ResultsStore:
         except OSError as err:
             raise ReportError(f"{path}: cannot write: {err.strerror or err}") from err
 
+    def fail_window(self, window: MeasuredWindow, *, device: str, message: str
+                    ) -> IdentificationResult:
+        """Record that the identification of ``window`` failed, and return the record.
+
+        The one failure record of every entrance (a bag, the live node, a fleet or Ray
+        task): every section ``unknown``, ``message`` saying why (see
+        :func:`~pier_monitor.core.identify.damage.failed_result`).
+
+        Raises
+        ------
+        ReportError
+            If the file cannot be written.
+        """
+        failed = failed_result(window, device=device, message=message)
+        self.record_failure(failed)
+        return failed
+
     # -- questions --------------------------------------------------------------------------
     def is_done(self, event_id: str) -> bool:
         """Whether the event has a result or a failure record."""
@@ -187,8 +204,15 @@ class ResultsStore:
         None when there is none (compare with the design values).
         """
         earlier = [r for r in self.results(window.pier_id)
-                   if r.reliable and r.window_start_ns < window.start_time_ns]
+                   if self.is_baseline(r) and r.window_start_ns < window.start_time_ns]
         return earlier[0] if earlier else None
+
+    @staticmethod
+    def is_baseline(result: IdentificationResult) -> bool:
+        """Whether ``result`` may be a later event's baseline: a reliable result (a
+        successful identification that passed its self-check).  The one rule of
+        :meth:`baseline_for` and of the fleet's scheduler."""
+        return result.reliable
 
     def pending(self, inbox: str | Path | None = None) -> PendingWindows:
         """Windows that are not done yet, oldest first, one per event.

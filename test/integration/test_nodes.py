@@ -42,11 +42,11 @@ def short_bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int]:
 @pytest.fixture(scope="module")
 def offline(short_bag: tuple[Path, int], tmp_path_factory: pytest.TempPathFactory) -> Any:
     """identify_bag on the same bag with the same settings as the live identifier."""
-    from pier_monitor.pinn import PinnSettings
+    from pier_monitor.core.identify.methods import IdentifySettings
     from pier_monitor.pipeline import identify_bag
 
     return identify_bag(short_bag[0], tmp_path_factory.mktemp("offline"),
-                        settings=PinnSettings(**TINY))
+                        settings=IdentifySettings(**TINY))
 
 
 @pytest.fixture
@@ -459,13 +459,13 @@ def test_field_network_bag_live_equals_offline(listener, spawn_python, tmp_path)
     """Accelerometers at every level and a 10 Hz GNSS receiver at the top, no wire: the live
     graph reconstructs the springs exactly as ``identify`` does for the same bag."""
     from pier_monitor.bags.synthetic_bag import write_synthetic_bag
-    from pier_monitor.pinn import PinnSettings
+    from pier_monitor.core.identify.methods import IdentifySettings
     from pier_monitor.pipeline import identify_bag
     from pier_monitor.report.results import damage_state_fields
 
     info = write_synthetic_bag(tmp_path / "field.mcap", fmt="mcap", seed=2, layout="accel",
                                gnss=True, scenario="just_yield", block_s=0.5)
-    offline = identify_bag(info.bag.path, tmp_path / "offline", settings=PinnSettings(**TINY))
+    offline = identify_bag(info.bag.path, tmp_path / "offline", settings=IdentifySettings(**TINY))
     coverage, = (ev.window.coverage for ev in offline.events)
     assert coverage.acceleration.all() and coverage.displacement.tolist() == [False] * 3 + [True]
     params = params_file(tmp_path / "params.yaml", tmp_path)

@@ -9,7 +9,7 @@ import pytest
 
 from pier_monitor.core.synthetic.reference import paper_case_window
 from pier_monitor.events import TrainingStopped, identify_window
-from pier_monitor.pinn import PinnSettings
+from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.report.store import ResultsStore
 
 
@@ -21,10 +21,10 @@ def window():
 
 def test_a_failed_training_is_recorded_and_returned_not_raised(window, tmp_path) -> None:
     store = ResultsStore(tmp_path)
-    outcome = identify_window(window, PinnSettings(max_epochs=0, device="cpu"), store)
+    outcome = identify_window(window, IdentifySettings(max_epochs=0, device="cpu"), store)
     result = outcome.result
     assert not result.success and outcome.paths is None
-    assert result.message.startswith("identification failed: InputDataError: PINN setting "
+    assert result.message.startswith("identification failed: InputDataError: identification setting "
                                      "max_epochs")
     assert result.overall_state == "unknown" and math.isnan(result.sections[0].k1)
     (recorded,) = store.failures()  # NaN parameters: compare what is not NaN
@@ -43,6 +43,6 @@ def test_a_training_stopped_from_the_callback_leaves_the_window_pending(window,
         raise TrainingStopped()
 
     with pytest.raises(TrainingStopped):
-        identify_window(window, PinnSettings(device="cpu"), store, progress=stop)
+        identify_window(window, IdentifySettings(device="cpu"), store, progress=stop)
     assert not store.is_done(window.event_id)
     assert store.pending().windows == (window,)  # stored before training, every field

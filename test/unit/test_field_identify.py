@@ -11,7 +11,7 @@ import pytest
 from pier_monitor.bench import field_case
 from pier_monitor.core.errors import IdentificationError
 from pier_monitor.core.identify.states import classify_ductility
-from pier_monitor.pinn import PinnSettings, identify
+from pier_monitor.core.identify.methods import IdentifySettings, identify
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +26,7 @@ def _true_df(truth, theta):
 def test_accelerometers_alone_give_the_yielded_springs_and_every_state(accel_case):
     window, truth, theta = accel_case
     assert window.coverage.acceleration.all() and not window.coverage.displacement.any()
-    run = identify(window, PinnSettings(seed=0))
+    run = identify(window, IdentifySettings(seed=0))
     result = run.result
     df_true = _true_df(truth, theta)
     yielded = df_true >= 1.0
@@ -45,7 +45,7 @@ def test_accelerometers_alone_give_the_yielded_springs_and_every_state(accel_cas
 def test_three_instrumented_levels_give_the_ductility_of_the_yielded_springs():
     window, truth, theta = field_case("edefense", "sparse", False, "strong", 1)
     assert window.coverage.acceleration.tolist() == [False, True, False, True]
-    result = identify(window, PinnSettings(seed=1)).result
+    result = identify(window, IdentifySettings(seed=1)).result
     df_true = _true_df(truth, theta)
     df = np.array([s.ductility_factor for s in result.sections])
     yielded = df_true >= 1.0
@@ -56,7 +56,7 @@ def test_three_instrumented_levels_give_the_ductility_of_the_yielded_springs():
 
 def test_an_ensemble_gives_intervals_and_state_probabilities(accel_case):
     window, truth, theta = accel_case
-    result = identify(window, PinnSettings(seed=0, members=8)).result
+    result = identify(window, IdentifySettings(seed=0, members=8)).result
     for sec in result.sections:
         u = sec.uncertainty
         assert u is not None and u.k1.lo < u.k1.hi and u.k1.std > 0
@@ -68,9 +68,9 @@ def test_an_ensemble_gives_intervals_and_state_probabilities(accel_case):
 def test_the_method_choice(accel_case):
     window, _, _ = accel_case
     with pytest.raises(IdentificationError, match="method 'pinn' needs a displacement"):
-        identify(window, PinnSettings(method="pinn"))
+        identify(window, IdentifySettings(method="pinn"))
     with pytest.raises(Exception, match="method"):
-        identify(window, PinnSettings(method="guess"))
+        identify(window, IdentifySettings(method="guess"))
     # without an accelerometer at the top the moments are unknown: a clear error
     cov = dataclasses.replace(window.coverage,
                               acceleration=np.array([True, True, True, False]))
@@ -78,4 +78,4 @@ def test_the_method_choice(accel_case):
     for arr in (a, v, x):
         arr[:, -1] = np.nan
     with pytest.raises(IdentificationError, match="top level"):
-        identify(dataclasses.replace(window, coverage=cov, a=a, v=v, x=x), PinnSettings())
+        identify(dataclasses.replace(window, coverage=cov, a=a, v=v, x=x), IdentifySettings())

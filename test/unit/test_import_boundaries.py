@@ -15,6 +15,8 @@ imports, so must everything a layer loads.
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -234,3 +236,37 @@ def test_an_import_inside_a_method_is_seen_and_type_checking_blocks_are_not() ->
     bad = violations("pier_monitor.core.model.units", found)
     assert any("core imports torch" in b for b in bad)
     assert any("torch imported inside a function" in b for b in bad)
+
+
+#: What importing a node's module must leave out of ``sys.modules`` (measured in a fresh
+#: interpreter, not read from the source): the ingest node never needs the report's
+#: figures, torch or the bag files; the identifier node loads torch only when it trains.
+NODE_NEVER_LOADS = {
+    "pier_monitor.nodes.ingest_node": ("torch", "matplotlib", "mcap"),
+    "pier_monitor.nodes.identifier_node": ("torch",),
+}
+
+
+def _loaded_in_fresh_interpreter(code: str, names: tuple[str, ...]) -> list[str]:
+    """Run ``code`` in a new interpreter and return which of ``names`` it loaded."""
+    probe = f"{code}\nimport sys\nprint(' '.join(n for n in {names!r} if n in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         timeout=300, check=True)
+    return out.stdout.split()
+
+
+@pytest.mark.parametrize("module", sorted(NODE_NEVER_LOADS))
+def test_a_node_module_loads_only_what_it_uses(module: str) -> None:
+    loaded = _loaded_in_fresh_interpreter(f"import {module}", NODE_NEVER_LOADS[module])
+    assert not loaded, f"importing {module} loads {loaded}"
+
+
+def test_a_field_identification_never_loads_torch_or_resolves_a_device() -> None:
+    """``--method field --device cuda`` on a machine without a GPU: the numpy method never
+    asks for the device, so it succeeds, and torch stays unloaded."""
+    code = ("from pier_monitor.core.identify.methods import IdentifySettings, identify\n"
+            "from pier_monitor.core.synthetic.reference import paper_case_window\n"
+            "window, _, _ = paper_case_window(seed=0, window_s=(30.0, 36.0))\n"
+            "run = identify(window, IdentifySettings(method='field', device='cuda'))\n"
+            "assert run.result.success and run.result.device == 'cpu', run.result.message\n")
+    assert _loaded_in_fresh_interpreter(code, ("torch",)) == []

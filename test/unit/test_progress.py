@@ -6,7 +6,7 @@ import io
 
 import numpy as np
 
-from pier_monitor.pinn import Progress
+from pier_monitor.core.identify.methods import Progress
 from pier_monitor.progress import TrainingProgress
 
 

@@ -145,3 +145,28 @@ def test_an_event_directory_linked_out_of_the_root_is_refused(tmp_path):
     (root / "run1").symlink_to(tmp_path / "elsewhere", target_is_directory=True)
     with pytest.raises(UnsafeNameError, match="outside"):
         ResultsStore(root).event_dir("run1")
+
+
+def test_the_fleet_waits_for_the_baseline_that_identify_would_choose_after_an_unreliable_event(
+        base_window, tmp_path):
+    """An unreliable result is no baseline, for ``identify`` and for the fleet alike: the
+    fleet hands out a later event only once the event that will be its baseline is done."""
+    from pier_monitor.fleet.runner import _Schedule
+
+    w = {name: window(base_window, name, t) for name, t in
+         (("e1", 10.0), ("e2", 20.0), ("e3", 30.0))}
+    unreliable = result(w["e1"], 1e9).with_check_reasons(
+        ["level 2: the reproduced acceleration departs from the measured by 60 % RMS"])
+    assert unreliable.success and not unreliable.reliable
+    store = store_with(tmp_path, unreliable)
+    schedule = _Schedule(store)
+    schedule.add(w["e2"])
+    schedule.add(w["e3"])
+    assert store.baseline_for(w["e2"]) is None
+    # e3's baseline will be e2 (e1 is unreliable): e3 waits for it
+    assert [x.event_id for x in schedule.ready()] == ["e2"]
+    done = result(w["e2"], 0.9e9)
+    store_with(tmp_path, done)
+    schedule.settle("e2", done)
+    assert [x.event_id for x in schedule.ready()] == ["e3"]
+    assert store.baseline_for(w["e3"]).event_id == "e2"

@@ -58,6 +58,7 @@ __all__ = [
     "SectionResult",
     "IdentificationResult",
     "build_sections",
+    "capped_ductility",
     "failed_result",
     "failed_event_result",
     "k1_change_pct",
@@ -74,6 +75,18 @@ def ductility_factors(theta: np.ndarray, params: SpringParameters) -> np.ndarray
     if theta.ndim != 2 or theta.shape[1] != params.n_springs:
         raise InputDataError(f"theta: expected shape (T, {params.n_springs}), got {theta.shape}")
     return np.max(np.abs(theta), axis=0) / params.yield_angles
+
+
+def capped_ductility(max_angle: np.ndarray, yield_angle: np.ndarray,
+                     yielded: np.ndarray) -> np.ndarray:
+    """Ductility factors ``max|θ| / θy``, at most 1 where the spring did not yield.
+
+    A spring that never yielded has ``θy >= max|θ|``: its DF is at most 1, whatever ``fy``
+    bound the fit could give (a poorly converged ``k1`` would otherwise turn the bound into a
+    large DF).  Arrays broadcast together (e.g. (N,) or (M, N)).
+    """
+    df = np.asarray(max_angle, dtype=float) / np.asarray(yield_angle, dtype=float)
+    return np.where(np.asarray(yielded, dtype=bool), df, np.minimum(df, 1.0))
 
 
 def k1_change_pct(k1: np.ndarray, baseline_k1: np.ndarray) -> np.ndarray:
@@ -445,10 +458,7 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
     """
     z = geometry.level_heights_m
     max_angle = np.max(np.abs(theta), axis=0)
-    df = max_angle / params.yield_angles
-    # a spring that never yielded has θy >= max|θ|: its DF is at most 1, whatever fy bound the
-    # fit could give (a poorly converged k1 would otherwise turn the bound into a large DF)
-    df = np.where(np.asarray(yielded, dtype=bool), df, np.minimum(df, 1.0))
+    df = capped_ductility(max_angle, params.yield_angles, yielded)
     if uncertainty is not None:
         uncertainty = tuple(uncertainty)
         if len(uncertainty) != geometry.n_levels:

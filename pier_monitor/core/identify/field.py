@@ -43,6 +43,7 @@ import numpy as np
 from scipy import optimize, stats
 
 from pier_monitor.core.errors import IdentificationError
+from pier_monitor.core.identify.damage import capped_ductility
 from pier_monitor.core.identify.equation_error import robust_increments
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import SpringParameters
@@ -175,7 +176,7 @@ class FieldFit:
     members: FieldMembers | None = None
 
 
-class _Problem:
+class _FieldProblem:
     """Data and model of one window (see the module documentation)."""
 
     def __init__(self, window: MeasuredWindow, settings: FieldSettings) -> None:
@@ -353,7 +354,7 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
         When the top level has no accelerometer.
     """
     settings = settings or FieldSettings()
-    pb = _Problem(window, settings)
+    pb = _FieldProblem(window, settings)
     n = pb.n
     design = window.design
     stages: dict[str, SpringParameters] = {}
@@ -467,7 +468,7 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
                     moment=moment, x=x, v=v, misfit=misfit, members=ensemble)
 
 
-def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
+def _laplace_members(pb: _FieldProblem, sol: optimize.OptimizeResult, lo: np.ndarray,
                      hi: np.ndarray, yielded: np.ndarray, members: int, seed: int,
                      scale: float = 1.0) -> FieldMembers:
     """Members drawn from the linearised posterior of the joint fit (member 0: the fit).
@@ -533,7 +534,7 @@ def _laplace_members(pb: _Problem, sol: optimize.OptimizeResult, lo: np.ndarray,
         params[m, ~yielded, 2] = np.abs(g[:, ~yielded]).max(axis=0)
     reached = np.abs(moment).max(axis=1) > params[..., 2] * (1.0 - np.abs(draws[:, 4:_COLUMNS * n:_COLUMNS]))
     member_yielded = yielded & reached
-    ductility = np.abs(theta).max(axis=1) / (params[..., 2] / params[..., 0])
-    ductility = np.where(member_yielded, ductility, np.minimum(ductility, 1.0))
+    ductility = capped_ductility(np.abs(theta).max(axis=1), params[..., 2] / params[..., 0],
+                                 member_yielded)
     return FieldMembers(params=params, theta=theta, moment=moment, yielded=member_yielded,
                         ductility=ductility)

@@ -1,0 +1,433 @@
+"""The front door of identification: methods as peers behind one interface.
+
+Every identification of a window goes through :func:`identify`.  It validates the
+settings, chooses the method (:func:`choose_method`), runs it, and assembles the result in
+one place: the ductility rule for springs that did not yield, the ensemble's summary
+(intervals, probabilities), the section states and the :class:`IdentificationResult`.
+
+A method is a class with a ``name`` and ``run(window, settings, callback) ->
+MethodOutput`` (:class:`Method`).  The peers today:
+
+``field`` (:class:`FieldMethod`)
+    the output-error reconstruction of :func:`~pier_monitor.core.identify.field.fit_field`
+    (numpy/scipy; every layout; measured displacements used where there are any);
+``pinn`` (:class:`PinnMethod`)
+    the equation-error start and the physics-informed network
+    (:func:`pier_monitor.pinn.trainer.train_pinn`), for windows with a displacement and an
+    acceleration at every level.  It is the only method that loads torch, and only when it
+    is chosen.
+
+This module itself uses no torch: a field identification never loads it, and never
+resolves a compute device.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable, Protocol
+
+import numpy as np
+
+from pier_monitor.core.errors import IdentificationError, InputDataError
+from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
+                                               capped_ductility, overall_state)
+from pier_monitor.core.identify.field import FieldSettings, fit_field
+from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
+                                                    summarize_members)
+from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
+from pier_monitor.core.model.config import SpringParameters
+from pier_monitor.core.model.link_model import angle_matrix
+
+__all__ = ["DEFAULT_TERM_WEIGHTS", "PAPER_TERM_WEIGHTS", "TERMS", "METHODS",
+           "EnsembleDraws", "FieldMethod", "IdentificationRun", "IdentifySettings", "Method",
+           "MethodOutput", "PinnMethod", "Progress", "choose_method", "identify"]
+
+#: The PINN's loss terms: the data misfit, then the physics terms.
+TERMS = ("data", "eom", "newmark_a", "newmark_v", "newmark_x", "hysteresis")
+
+#: Relative weights of the physics terms, the paper's: α5 = 0.01 α4 (equation of motion),
+#: α6 = 1e-4 α1 (eq. 22), α7 = α2 and α8 = α3 (Newmark increments), α9 = 0.01 α4 (hysteresis).
+PAPER_TERM_WEIGHTS = {"eom": 1e-2, "newmark_a": 1e-4, "newmark_v": 1.0, "newmark_x": 1.0,
+                      "hysteresis": 1e-2}
+
+#: The default: the paper's weights without eq. 22.  Eq. 22 is eq. 21 at ``t+Δt`` with the
+#: velocity replaced by its trapezoid update (eq. 23); on data sampled at 100 Hz the trapezoid
+#: is off by about 1.5 % of max|Δẋ|, and eq. 22 multiplies that error by the damping matrix,
+#: so minimising it drags ``c`` towards zero (measured on the paper case without moments:
+#: c −2 % to −20 % with it, within 0.3 % without it).  Eqs. 21 and 23 keep what it says.
+DEFAULT_TERM_WEIGHTS = dict(PAPER_TERM_WEIGHTS, newmark_a=0.0)
+
+#: The method names :func:`choose_method` accepts (``auto`` chooses one of the others).
+METHODS = ("auto", "pinn", "field")
+
+
+@dataclass
+class IdentifySettings:
+    """Settings of one identification (defaults: the benchmarked configuration).
+
+    The first group concerns every method; ``field_settings`` the field reconstruction;
+    the rest the PINN (ignored by the other methods).
+
+    Attributes
+    ----------
+    method : {"auto", "pinn", "field"}
+        ``pinn``: the equation-error start and the PINN, for windows with a displacement
+        and an acceleration at every level (a shaking table with calibrated sensors: the
+        most accurate there); ``field``: the reconstruction from the accelerations
+        (:func:`~pier_monitor.core.identify.field.fit_field`, measured displacements used
+        where there are any), for windows that start at rest; it tolerates uncalibrated
+        gains (about 1 %) and misaligned sensors, which bias the equation-error start.
+        ``auto``: ``pinn`` with every level fully measured, else ``field``.
+    members : int
+        Members of the ensemble (1: one identification, no uncertainty).  PINN: member 0
+        trains on the measured window from the start; the others on copies perturbed as
+        the noise model allows (:mod:`pier_monitor.core.identify.ensemble`), each from the
+        start scattered by ``member_start_sd`` (a multi-start).  Field: draws of the
+        linearised posterior.
+    seed : int
+    device : {"auto", "cpu", "cuda"}
+        Where the PINN trains; the numpy methods never resolve it.
+    threads : int
+        CPU threads of a PINN training in this process (0: as the process has them; a
+        worker of a pool that shares a machine takes its share of the cores).
+    yield_score : float
+        Threshold of the yield test (see :func:`~pier_monitor.core.identify.equation_error.yield_test`).
+    field_settings : FieldSettings
+        The reconstruction of windows from field networks.
+    pair_stride : int
+        Training pairs every ``pair_stride`` samples (``t_s = pair_stride · Δt``; the paper
+        used 0.1-0.5 s; 1 = every consecutive pair of the window).
+    arch, hidden, layers, n_fourier :
+        Network (see :class:`~pier_monitor.pinn.network.MemberNet`); ``n_fourier = 0``
+        picks ``min(32, P // 4)`` frequencies.
+    residual : bool
+        Network outputs are corrections to the measured data (in noise units).
+    max_epochs, min_epochs, warmup_epochs : int
+        Epoch limits; ``warmup_epochs`` data-only epochs with frozen parameters first.
+    lr_network, lr_params : float
+        Adam learning rates (parameters as log-values).
+    data_weight, physics_weight : float
+        ``w_d`` and ``w_p``.
+    term_weights : dict
+        Relative weights of the physics terms (default :data:`DEFAULT_TERM_WEIGHTS`;
+        :data:`PAPER_TERM_WEIGHTS` are the paper's).
+    param_rule : {"adam", "paper"}
+        Parameter update: Adam on log-parameters, or the paper's Fig. 6 rule.
+    paper_lr2 : float
+        The paper's ``lr2`` (step as a share of the initial value).
+    init : {"equation_error", "design"}
+        Starting parameters: the equation-error fit, or the window's design values.
+    patience, tol :
+        Early stopping: stop once no parameter moved by more than ``tol`` (relative) over
+        ``patience`` epochs.
+    member_start_sd : float
+        Relative spread of the PINN members' starting parameters (log-normal).
+    """
+
+    pair_stride: int = 1
+    arch: str = "fourier"
+    hidden: int = 32
+    layers: int = 2
+    n_fourier: int = 0
+    residual: bool = True
+    max_epochs: int = 3000
+    min_epochs: int = 300
+    warmup_epochs: int = 0
+    lr_network: float = 1e-3
+    lr_params: float = 1e-3
+    data_weight: float = 1.0
+    physics_weight: float = 1e-2
+    term_weights: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_TERM_WEIGHTS))
+    param_rule: str = "adam"
+    paper_lr2: float = 1e-3
+    init: str = "equation_error"
+    patience: int = 200
+    tol: float = 2e-5
+    device: str = "auto"
+    seed: int = 0
+    yield_score: float = 50.0
+    field_settings: FieldSettings = field(default_factory=FieldSettings)
+    members: int = 1
+    method: str = "auto"
+    member_start_sd: float = 0.02
+    threads: int = 0
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON form (lists for tuples), as a result records it."""
+        return json.loads(json.dumps(asdict(self)))
+
+    def validate(self) -> None:
+        """Raise :class:`InputDataError` naming the first bad setting."""
+        checks = [
+            ("pair_stride", self.pair_stride >= 1),
+            ("arch", self.arch in ("fourier", "paper")),
+            ("hidden", self.hidden >= 1), ("layers", self.layers >= 1),
+            ("n_fourier", self.n_fourier >= 0),
+            ("max_epochs", self.max_epochs >= 1),
+            ("min_epochs", 0 <= self.min_epochs <= self.max_epochs),
+            ("warmup_epochs", self.warmup_epochs >= 0),
+            ("lr_network", self.lr_network > 0), ("lr_params", self.lr_params > 0),
+            ("data_weight", self.data_weight > 0), ("physics_weight", self.physics_weight > 0),
+            ("term_weights", set(self.term_weights) <= set(TERMS[1:])
+             and all(v >= 0 for v in self.term_weights.values())),
+            ("param_rule", self.param_rule in ("adam", "paper")),
+            ("paper_lr2", self.paper_lr2 > 0),
+            ("init", self.init in ("equation_error", "design")),
+            ("patience", self.patience >= 1), ("tol", self.tol > 0),
+            ("device", self.device in ("auto", "cpu", "cuda")),
+            ("members", self.members >= 1),
+            ("method", self.method in METHODS),
+            ("member_start_sd", self.member_start_sd >= 0),
+            ("threads", self.threads >= 0),
+            ("param_rule", self.param_rule == "adam" or self.members == 1),
+        ]
+        for name, ok in checks:
+            if not ok:
+                raise InputDataError(f"identification setting {name}: invalid value "
+                                     f"{getattr(self, name)!r}")
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What an iterative method reports to the callback after each epoch."""
+
+    epoch: int
+    max_epochs: int
+    loss: float
+    terms: dict[str, float]
+    k1: np.ndarray
+    k2: np.ndarray
+    fy: np.ndarray
+    c: np.ndarray
+    elapsed_s: float
+
+
+@dataclass(frozen=True)
+class IdentificationRun:
+    """Everything one identification produced."""
+
+    result: IdentificationResult
+    reproduced: Reproduced
+    initial: SpringParameters
+    history: dict[str, list[Any]] = field(default_factory=dict)
+    #: parameters after each stage of the identification, in order (the last is the result)
+    stages: dict[str, SpringParameters] = field(default_factory=dict)
+    #: the members' reproduced histories (M, T, N) when an ensemble was identified
+    members: MemberResponses | None = None
+
+
+@dataclass(frozen=True)
+class EnsembleDraws:
+    """The members of an ensemble, as a method found them (M members, N springs).
+
+    Attributes
+    ----------
+    params : ndarray, shape (M, N, 4)
+        ``k1, k2, fy, c`` of each member (SI); ``fy`` of a spring that did not yield is the
+        lower bound, its largest moment.
+    ductility : ndarray, shape (M, N)
+        Ductility factors, at most 1 where the member's spring did not yield.
+    yielded : ndarray of bool, shape (M, N)
+    """
+
+    params: np.ndarray
+    ductility: np.ndarray
+    yielded: np.ndarray
+
+
+@dataclass(frozen=True)
+class MethodOutput:
+    """What a method returns to :func:`identify`, which assembles the result.
+
+    Attributes
+    ----------
+    params : SpringParameters
+        The point estimate (``fy`` of a spring that did not yield: its largest moment).
+    yielded : ndarray of bool, shape (N,)
+        Springs reported as yielded.
+    reproduced : Reproduced
+        The responses the point estimate reproduces, (T, N) each.
+    initial : SpringParameters
+        The parameters the method started from (its first stage).
+    stages : dict of str to SpringParameters
+        Parameters after each stage, in order (the last is ``params``).
+    draws : EnsembleDraws or None
+        The ensemble, with more than one member.
+    member_responses : MemberResponses or None
+        The members' reproduced histories.
+    device : str
+        Where it computed (``cpu`` for the numpy methods).
+    message : str
+        One line on what was done.
+    epochs : int
+        Training epochs (0 for a method that does not train).
+    final_loss : float
+        Last training loss (NaN without training).
+    history : dict
+        Per-epoch records of a training (``params``: the parameters of every epoch, kept
+        in the run, not in the result).
+    """
+
+    params: SpringParameters
+    yielded: np.ndarray
+    reproduced: Reproduced
+    initial: SpringParameters
+    stages: dict[str, SpringParameters]
+    draws: EnsembleDraws | None
+    member_responses: MemberResponses | None
+    device: str
+    message: str
+    epochs: int = 0
+    final_loss: float = float("nan")
+    history: dict[str, list[Any]] = field(default_factory=dict)
+
+
+class Method(Protocol):
+    """An identification method: a peer behind :func:`identify`."""
+
+    name: str
+
+    def run(self, window: MeasuredWindow, settings: IdentifySettings,
+            callback: Callable[[Progress], None] | None) -> MethodOutput:
+        """Identify the springs of ``window``."""
+        ...
+
+
+class FieldMethod:
+    """The field reconstruction (:func:`~pier_monitor.core.identify.field.fit_field`)."""
+
+    name = "field"
+
+    def run(self, window: MeasuredWindow, settings: IdentifySettings,
+            callback: Callable[[Progress], None] | None = None) -> MethodOutput:
+        """Reconstruct the springs and the unmeasured motion from the physics."""
+        fit = fit_field(window, settings.field_settings, members=settings.members,
+                        seed=settings.seed)
+        draws = member_responses = None
+        if fit.members is not None:
+            ens = fit.members
+            draws = EnsembleDraws(params=ens.params, ductility=ens.ductility,
+                                  yielded=ens.yielded)
+            b_inv = np.linalg.inv(angle_matrix(window.geometry.section_heights_m))
+            member_responses = MemberResponses(theta=ens.theta, moment=ens.moment,
+                                               x=ens.theta @ b_inv.T)
+        stage_names = list(fit.stages)
+        a = np.where(window.coverage.acceleration, window.a,
+                     np.gradient(fit.v, window.dt, axis=0))
+        reproduced = Reproduced(t=window.t.copy(), a=a, v=fit.v, x=fit.x, theta=fit.theta,
+                                moment=fit.moment)
+        message = (f"{window.coverage.layout} layout: springs reconstructed from the physics "
+                   f"({', '.join(stage_names)})"
+                   + (f", {settings.members} members" if fit.members is not None else ""))
+        return MethodOutput(params=fit.params, yielded=fit.yielded, reproduced=reproduced,
+                            initial=fit.stages[stage_names[0]], stages=dict(fit.stages),
+                            draws=draws, member_responses=member_responses, device="cpu",
+                            message=message)
+
+
+class PinnMethod:
+    """The PINN (:func:`pier_monitor.pinn.trainer.train_pinn`).
+
+    The core does not depend on the torch layer: the trainer is named by its module path and
+    loaded on the first run (as a plug-in is), so torch loads only when a PINN trains.
+    """
+
+    name = "pinn"
+    entry_point = "pier_monitor.pinn.trainer:train_pinn"
+
+    def run(self, window: MeasuredWindow, settings: IdentifySettings,
+            callback: Callable[[Progress], None] | None = None) -> MethodOutput:
+        """Train the network and the parameters together."""
+        module, _, function = self.entry_point.partition(":")
+        train = getattr(importlib.import_module(module), function)
+        return train(window, settings, callback)
+
+
+_METHODS: dict[str, Method] = {"field": FieldMethod(), "pinn": PinnMethod()}
+
+
+def choose_method(window: MeasuredWindow, settings: IdentifySettings) -> Method:
+    """The method that identifies ``window``: the one named, or for ``auto`` the PINN where
+    every level is fully measured and the field reconstruction otherwise.
+
+    Raises
+    ------
+    IdentificationError
+        If ``pinn`` is named for a window without a displacement and an acceleration at
+        every level.
+    """
+    if settings.method == "pinn" and not window.coverage.is_full:
+        raise IdentificationError(
+            f"window {window.event_id}: method 'pinn' needs a displacement and an acceleration "
+            f"at every level; this window's layout is {window.coverage.layout}")
+    if settings.method == "field" or not window.coverage.is_full:
+        return _METHODS["field"]
+    return _METHODS["pinn"]
+
+
+def _converged_members(params: np.ndarray, ductility: np.ndarray) -> np.ndarray:
+    """Members whose parameters and ductility factors are finite and positive, (M,) bool."""
+    return (np.isfinite(params[..., [0, 3]]).all(axis=(1, 2))
+            & (params[..., [0, 3]] > 0).all(axis=(1, 2))
+            & np.isfinite(ductility).all(axis=1) & (ductility > 0).all(axis=1))
+
+
+def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
+             callback: Callable[[Progress], None] | None = None,
+             baseline_k1: np.ndarray | None = None) -> IdentificationRun:
+    """Identify ``k1, k2, fy, c`` of every spring of a measured window.
+
+    Parameters
+    ----------
+    window : MeasuredWindow
+        The event window (relative responses, foundation acceleration, design values).
+    settings : IdentifySettings, optional
+        The method and its settings; the defaults are the benchmarked ones.
+    callback : callable, optional
+        Called with a :class:`Progress` after every epoch of a training method.
+    baseline_k1 : ndarray, shape (N,), optional
+        Reference ``k1`` for the change in the results (design values when omitted).
+
+    Raises
+    ------
+    InputDataError
+        If a setting is invalid.
+    IdentificationError
+        When the method fails (a PINN loss that becomes NaN/Inf, ``device="cuda"`` without a
+        GPU for the PINN, a method that does not apply to the window's layout).
+    """
+    settings = settings or IdentifySettings()
+    settings.validate()
+    t_start = time.perf_counter()
+    out = choose_method(window, settings).run(window, settings, callback)
+    uncertainty = p_overall = None
+    if out.draws is not None:
+        d = out.draws
+        kept = _converged_members(d.params, d.ductility)
+        masked = d.params.copy()
+        masked[..., 1:3] = np.where(d.yielded[..., None], masked[..., 1:3], np.nan)
+        uncertainty = summarize_members(masked[kept], d.ductility[kept], d.yielded[kept])
+        p_overall = overall_state_probabilities(d.ductility, d.yielded)
+    sections = build_sections(window.geometry, out.params, out.reproduced.theta, out.yielded,
+                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1,
+                              uncertainty=uncertainty)
+    result = IdentificationResult(
+        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
+        overall_state=overall_state(sections), window_start_s=float(window.t[0]),
+        window_duration_s=window.duration_s, epochs=out.epochs, final_loss=out.final_loss,
+        wall_time_s=time.perf_counter() - t_start, device=out.device, success=True,
+        message=out.message, settings=settings.as_dict(),
+        history={k: v for k, v in out.history.items() if k != "params"},
+        p_overall_state=p_overall)
+    return IdentificationRun(result=result, reproduced=out.reproduced, initial=out.initial,
+                             history=out.history, stages=out.stages,
+                             members=out.member_responses)
+
+
+def member_ductility(theta: np.ndarray, params: np.ndarray, yielded: np.ndarray) -> np.ndarray:
+    """Ductility factors of every member, (M, N), from angles (M, T, N) and parameters
+    (M, N, 4), with the rule of :func:`~pier_monitor.core.identify.damage.capped_ductility`."""
+    return capped_ductility(np.abs(theta).max(axis=1), params[..., 2] / params[..., 0], yielded)
