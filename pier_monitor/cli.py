@@ -39,7 +39,7 @@ from pier_monitor.core.model.solver import simulate
 from pier_monitor.core.synthetic.measurement import SensorImperfections
 from pier_monitor.core.synthetic.reference import table1_model
 from pier_monitor.fleet import FleetOptions, FleetProgress, LocalPool, RayBackend, run_fleet
-from pier_monitor.core.identify.methods import IdentifySettings
+from pier_monitor.core.identify.methods import METHODS, IdentifySettings
 from pier_monitor.events import EventOutcome
 from pier_monitor.pipeline import BagOutcome, identify_bag
 from pier_monitor.progress import TrainingProgress
@@ -226,11 +226,12 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--members", type=_positive_int, default=None,
                         help="ensemble members identified together, for the uncertainty of every "
                              f"number (default {IdentifySettings().members}; 1: no uncertainty)")
-    parser.add_argument("--method", choices=("auto", "pinn", "field"), default="auto",
+    parser.add_argument("--method", choices=METHODS, default="auto",
                         help="pinn: equation-error start and PINN (every level with a "
-                             "displacement and an acceleration); field: the reconstruction "
-                             "from the accelerations (uncalibrated field sensors); auto: pinn "
-                             "where every level is fully measured, else field")
+                             "displacement and an acceleration); equation_error: that start "
+                             "alone; field: the reconstruction from the accelerations "
+                             "(uncalibrated field sensors); auto: pinn where every level is "
+                             "fully measured, else field")
     parser.add_argument("--no-progress", action="store_true",
                         help="no training progress (a bar on a terminal, else a line every 10 s)")
 

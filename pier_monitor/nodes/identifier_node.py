@@ -49,7 +49,7 @@ from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import TrainingStopped, identify_window
 from pier_monitor.fleet import EventTask, RayBackend, identify_event
-from pier_monitor.core.identify.methods import IdentifySettings, Progress
+from pier_monitor.core.identify.methods import METHODS, IdentifySettings, Progress
 from pier_monitor.report.results import damage_state_fields
 from pier_monitor.report.store import ResultsStore
 
@@ -62,7 +62,6 @@ from .qos import DAMAGE_STATE_QOS, WINDOW_QOS
 __all__ = ["IdentifierNode", "main", "DEVICES"]
 
 DEVICES = ("auto", "cpu", "cuda")
-METHODS = ("auto", "pinn", "field")
 #: Parameters that are IdentifySettings fields of the same name.
 _SETTINGS = ("device", "seed", "max_epochs", "min_epochs", "patience", "pair_stride", "hidden",
              "layers", "lr_network", "lr_params", "members", "method")

@@ -11,6 +11,9 @@ MethodOutput`` (:class:`Method`).  The peers today:
 ``field`` (:class:`FieldMethod`)
     the output-error reconstruction of :func:`~pier_monitor.core.identify.field.fit_field`
     (numpy/scipy; every layout; measured displacements used where there are any);
+``equation_error`` (:class:`EquationErrorMethod`)
+    the physics-only fit of the measured responses (numpy/scipy; every level fully
+    measured); the PINN's start;
 ``pinn`` (:class:`PinnMethod`)
     the equation-error start and the physics-informed network
     (:func:`pier_monitor.pinn.trainer.train_pinn`), for windows with a displacement and an
@@ -34,6 +37,8 @@ import numpy as np
 from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
                                                capped_ductility, overall_state)
+from pier_monitor.core.identify.ensemble import member_windows
+from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.field import FieldSettings, fit_field
 from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
                                                     summarize_members)
@@ -42,7 +47,7 @@ from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import angle_matrix
 
 __all__ = ["DEFAULT_TERM_WEIGHTS", "PAPER_TERM_WEIGHTS", "TERMS", "METHODS",
-           "EnsembleDraws", "FieldMethod", "IdentificationRun", "IdentifySettings", "Method",
+           "EnsembleDraws", "EquationErrorMethod", "FieldMethod", "IdentificationRun", "IdentifySettings", "Method",
            "MethodOutput", "PinnMethod", "Progress", "choose_method", "identify"]
 
 #: The PINN's loss terms: the data misfit, then the physics terms.
@@ -61,7 +66,7 @@ PAPER_TERM_WEIGHTS = {"eom": 1e-2, "newmark_a": 1e-4, "newmark_v": 1.0, "newmark
 DEFAULT_TERM_WEIGHTS = dict(PAPER_TERM_WEIGHTS, newmark_a=0.0)
 
 #: The method names :func:`choose_method` accepts (``auto`` chooses one of the others).
-METHODS = ("auto", "pinn", "field")
+METHODS = ("auto", "pinn", "field", "equation_error")
 
 
 @dataclass
@@ -73,13 +78,14 @@ class IdentifySettings:
 
     Attributes
     ----------
-    method : {"auto", "pinn", "field"}
+    method : {"auto", "pinn", "field", "equation_error"}
         ``pinn``: the equation-error start and the PINN, for windows with a displacement
         and an acceleration at every level (a shaking table with calibrated sensors: the
         most accurate there); ``field``: the reconstruction from the accelerations
         (:func:`~pier_monitor.core.identify.field.fit_field`, measured displacements used
         where there are any), for windows that start at rest; it tolerates uncalibrated
         gains (about 1 %) and misaligned sensors, which bias the equation-error start.
+        ``equation_error``: the PINN's start alone (every level fully measured).
         ``auto``: ``pinn`` with every level fully measured, else ``field``.
     members : int
         Members of the ensemble (1: one identification, no uncertainty).  PINN: member 0
@@ -346,7 +352,69 @@ class PinnMethod:
         return train(window, settings, callback)
 
 
-_METHODS: dict[str, Method] = {"field": FieldMethod(), "pinn": PinnMethod()}
+class EquationErrorMethod:
+    """The equation-error fit (:func:`~pier_monitor.core.identify.equation_error.fit_equation_error`):
+    the PINN's start, without the training.
+
+    For windows with a displacement and an acceleration at every level.  An ensemble is
+    randomise-then-optimise: member 0 fits the measured window, the others copies perturbed
+    as the noise model allows (noise, correlated drift, gains:
+    :func:`~pier_monitor.core.identify.ensemble.member_windows`), each making its own yield
+    decision; nothing else differs between members.
+    """
+
+    name = "equation_error"
+
+    def run(self, window: MeasuredWindow, settings: IdentifySettings,
+            callback: Callable[[Progress], None] | None = None) -> MethodOutput:
+        """Fit every member's springs to its window."""
+        _require_full(window, self.name)
+        b = angle_matrix(window.geometry.section_heights_m)
+        fits, thetas, moments = [], [], []
+        for w in member_windows(window, settings.members, seed=settings.seed):
+            fit = fit_equation_error(w.geometry, w.x, w.v, w.a, w.ag, w.design,
+                                     moments=w.moments, yield_score=settings.yield_score)
+            theta = w.x @ b.T
+            g = (w.moments if w.moments is not None
+                 else inertia_moments(w.geometry, w.a, w.ag) - (w.v @ b.T) * fit.params.c)
+            yielded = fit.yielded
+            # never yielded: fy only bounded below by the largest moment (k2, fy not identifiable)
+            fy = np.where(yielded, fit.params.fy, np.abs(g).max(axis=0))
+            fits.append((np.column_stack([fit.params.k1, fit.params.k2, fy, fit.params.c]),
+                         yielded))
+            thetas.append(theta)
+            moments.append(g)
+        params0 = SpringParameters(*fits[0][0].T)
+        first = fits[0]
+        reproduced = Reproduced(t=window.t.copy(), a=window.a, v=window.v, x=window.x,
+                                theta=thetas[0], moment=moments[0])
+        draws = member_responses = None
+        if settings.members > 1:
+            member_params = np.stack([f[0] for f in fits])
+            yielded = np.stack([f[1] for f in fits])
+            theta = np.stack(thetas)
+            draws = EnsembleDraws(params=member_params, yielded=yielded,
+                                  ductility=member_ductility(theta, member_params, yielded))
+            member_responses = MemberResponses(theta=theta, moment=np.stack(moments),
+                                               x=theta @ np.linalg.inv(b).T)
+        message = ("equation-error fit of the measured responses"
+                   + (f", {settings.members} members" if draws is not None else ""))
+        return MethodOutput(params=params0, yielded=first[1], reproduced=reproduced,
+                            initial=window.design, stages={"equation_error": params0},
+                            draws=draws, member_responses=member_responses, device="cpu",
+                            message=message)
+
+
+def _require_full(window: MeasuredWindow, method: str) -> None:
+    """Raise unless every level of ``window`` has a displacement and an acceleration."""
+    if not window.coverage.is_full:
+        raise IdentificationError(
+            f"window {window.event_id}: method '{method}' needs a displacement and an "
+            f"acceleration at every level; this window's layout is {window.coverage.layout}")
+
+
+_METHODS: dict[str, Method] = {"field": FieldMethod(), "pinn": PinnMethod(),
+                               "equation_error": EquationErrorMethod()}
 
 
 def choose_method(window: MeasuredWindow, settings: IdentifySettings) -> Method:
@@ -359,13 +427,11 @@ def choose_method(window: MeasuredWindow, settings: IdentifySettings) -> Method:
         If ``pinn`` is named for a window without a displacement and an acceleration at
         every level.
     """
-    if settings.method == "pinn" and not window.coverage.is_full:
-        raise IdentificationError(
-            f"window {window.event_id}: method 'pinn' needs a displacement and an acceleration "
-            f"at every level; this window's layout is {window.coverage.layout}")
-    if settings.method == "field" or not window.coverage.is_full:
-        return _METHODS["field"]
-    return _METHODS["pinn"]
+    if settings.method != "auto":
+        if settings.method != "field":
+            _require_full(window, settings.method)
+        return _METHODS[settings.method]
+    return _METHODS["pinn" if window.coverage.is_full else "field"]
 
 
 def _converged_members(params: np.ndarray, ductility: np.ndarray) -> np.ndarray:
