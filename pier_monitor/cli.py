@@ -230,8 +230,8 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
                         help="pinn: equation-error start and PINN (every level with a "
                              "displacement and an acceleration); equation_error: that start "
                              "alone; field: the reconstruction from the accelerations "
-                             "(uncalibrated field sensors); auto: pinn where every level is "
-                             "fully measured, else field")
+                             "(uncalibrated field sensors); auto: equation_error where every "
+                             "level is fully measured, else field")
     parser.add_argument("--no-progress", action="store_true",
                         help="no training progress (a bar on a terminal, else a line every 10 s)")
 

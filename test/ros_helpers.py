@@ -29,7 +29,7 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 MSG_DIR = REPO_ROOT / "msg_defs" / "msg"
 
 NS = "/edefense_pier"
-TINY = {"device": "cpu", "seed": 0, "max_epochs": 6, "min_epochs": 1}
+TINY = {"device": "cpu", "seed": 0, "max_epochs": 6, "min_epochs": 1, "method": "pinn"}
 RUN_SCRIPT = ("import runpy, sys; script = sys.argv.pop(1); sys.argv[0] = script; "
               "runpy.run_path(script, run_name='__main__')")
 RUN_MODULE = ("import runpy, sys; module = sys.argv.pop(1); "

@@ -28,7 +28,7 @@ from pier_monitor.report.fleet import STATE_RANK
 
 pytestmark = pytest.mark.timeout(400)
 
-TINY = IdentifySettings(device="cpu", seed=0, max_epochs=12, min_epochs=1)
+TINY = IdentifySettings(method="pinn", device="cpu", seed=0, max_epochs=12, min_epochs=1)
 
 
 @pytest.fixture(scope="module")

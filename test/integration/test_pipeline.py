@@ -59,7 +59,9 @@ def test_every_event_leaves_its_window_results_and_figures(identified):
         window = load_window(ev.window_file)
         np.testing.assert_array_equal(window.x, ev.window.x)
         result = IdentificationResult.load_json(ev.out_dir / "result.json")
-        assert result == ev.result
+        # as text: a method that does not train has no loss (NaN, which equals nothing)
+        assert (json.dumps(result.to_dict(), sort_keys=True)
+                == json.dumps(ev.result.to_dict(), sort_keys=True))
         for name in ("damage_state.mcap", "profile.png", "hysteresis.png", "responses.png",
                      "training.png"):
             assert (ev.out_dir / name).stat().st_size > 1000, name

@@ -43,6 +43,7 @@ def test_a_training_stopped_from_the_callback_leaves_the_window_pending(window,
         raise TrainingStopped()
 
     with pytest.raises(TrainingStopped):
-        identify_window(window, IdentifySettings(device="cpu"), store, progress=stop)
+        identify_window(window, IdentifySettings(method="pinn", device="cpu"), store,
+                        progress=stop)
     assert not store.is_done(window.event_id)
     assert store.pending().windows == (window,)  # stored before training, every field

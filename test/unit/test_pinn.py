@@ -76,7 +76,7 @@ def _small_window(moments: bool = False):
 @pytest.mark.parametrize("rule", ["adam", "paper"])
 def test_short_training_from_half_the_stiffness_recovers_an_elastic_model(rule):
     window, truth = _small_window()
-    settings = IdentifySettings(init="design", param_rule=rule, lr_params=2e-2, paper_lr2=2e-3,
+    settings = IdentifySettings(method="pinn", init="design", param_rule=rule, lr_params=2e-2, paper_lr2=2e-3,
                             max_epochs=500, min_epochs=100, patience=50, tol=1e-4, seed=0)
     seen = []
     run = identify(window, settings, callback=lambda pr: seen.append(pr))
@@ -90,7 +90,7 @@ def test_short_training_from_half_the_stiffness_recovers_an_elastic_model(rule):
 
 def test_update_rules_never_break_their_constraints():
     window, _ = _small_window(moments=True)
-    settings = IdentifySettings(init="design")
+    settings = IdentifySettings(method="pinn", init="design")
     problem = _PinnProblem([window], settings, torch.device("cpu"), window.design)
     # Adam rule: projection after arbitrary steps, three members at once
     ref = torch.tensor(np.stack([window.design.k1, window.design.k2, window.design.fy,
@@ -122,7 +122,7 @@ def test_update_rules_never_break_their_constraints():
 
 def test_pinn_result_matches_truth_on_the_paper_case_with_moments():
     window, truth, _ = paper_case_window(moments_measured=True, seed=0)
-    run = identify(window, IdentifySettings(max_epochs=150, min_epochs=50, seed=0))
+    run = identify(window, IdentifySettings(method="pinn", max_epochs=150, min_epochs=50, seed=0))
     est = run.result.params
     np.testing.assert_allclose(est.k1, truth.k1, rtol=4e-3)
     np.testing.assert_allclose(est.c, truth.c, rtol=6e-3)
@@ -134,7 +134,7 @@ def test_diverging_training_is_reported_not_returned():
     window, _ = _small_window()
     # an absurd learning rate blows the network's outputs up after the first step
     with pytest.raises(IdentificationError, match=r"training diverged at epoch 2: loss is (inf|nan)"):
-        identify(window, IdentifySettings(init="design", lr_network=1e300, max_epochs=5,
+        identify(window, IdentifySettings(method="pinn", init="design", lr_network=1e300, max_epochs=5,
                                       min_epochs=1))
 
 
@@ -144,13 +144,13 @@ def test_bad_settings_and_missing_gpu_are_clear_errors():
         identify(window, IdentifySettings(param_rule="sgd"))
     if not torch.cuda.is_available():
         with pytest.raises(IdentificationError, match="device 'cuda' requested but no CUDA GPU"):
-            identify(window, IdentifySettings(device="cuda"))
+            identify(window, IdentifySettings(method="pinn", device="cuda"))
 
 
 @pytest.mark.parametrize("residual", [True, False])
 def test_the_papers_relu_batchnorm_network_trains_too(residual):
     window, truth = _small_window(moments=True)
-    settings = IdentifySettings(arch="paper", hidden=16, layers=3, residual=residual,
+    settings = IdentifySettings(method="pinn", arch="paper", hidden=16, layers=3, residual=residual,
                             warmup_epochs=0 if residual else 30, max_epochs=40, min_epochs=10)
     run = identify(window, settings)
     assert run.result.epochs >= 10

@@ -67,7 +67,8 @@ def identified() -> tuple[Any, Any]:
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # a small problem: one thread is faster, and robust to a busy CPU
     try:
-        run = identify(window, IdentifySettings(max_epochs=20, min_epochs=5, device="cpu"))
+        run = identify(window, IdentifySettings(method="pinn", max_epochs=20, min_epochs=5,
+                                                   device="cpu"))
     finally:
         torch.set_num_threads(threads)
     return window, run
