@@ -30,9 +30,11 @@ Spring families
     the lower (in absolute value) of the reloading curve and the unloading line from the last
     state, which makes every inner loop follow the same two rules.
     *Strength degradation*: once the section has yielded, the skeleton beyond cracking is
-    scaled by ``D = max(d_min, 1 − β_E E_d / (My θy))`` (never increasing), ``E_d`` the energy
+    scaled by ``D = max(d_min, 1 − β_E E_d / (My θy))`` (never increasing), updated at each
+    reversal (as Ibarra, Medina & Krawinkler 2005 do per excursion), ``E_d`` the energy
     dissipated so far (``∫ M dθ`` less the elastic energy ``M² / 2 k_u`` still stored), so a
-    full cycle at a ductility of about 4 loses about 3 % of strength.
+    full cycle at a ductility of about 4 loses about 3 % of strength; a monotonic push
+    follows the virgin skeleton.
 
 ``bwbn``
     Not provided: the smooth Bouc–Wen–Baber–Noori family is left out of this test-bed (and of
@@ -99,6 +101,8 @@ __all__ = [
     "RCSectionTruth",
     "rc_springs_from_design",
     "rayleigh_coefficients",
+    "stiffness_periods",
+    "drive_spring",
     "integrate_rc",
     "simulate_rc",
     "skeleton_moment",
@@ -313,6 +317,17 @@ def _unload_stiffness(p, tmax_pos, tmax_neg):  # pragma: no cover - compiled
 
 
 @jit
+def _degrade(p, st, ku, out):  # pragma: no cover - compiled
+    """At a reversal of a yielded spring: the strength factor from the energy dissipated."""
+    ty = p[3]
+    if max(st[2], -st[3]) > ty:
+        ed = st[7] - st[1] * st[1] / (2.0 * ku)
+        d = max(p[10], 1.0 - p[9] * ed / (p[2] * ty))
+        if d < st[8]:
+            out[8] = d
+
+
+@jit
 def _takeda_trial(p, st, th, out):  # pragma: no cover - compiled
     """Moment and tangent at angle ``th`` from the committed state ``st``; new state in ``out``.
 
@@ -338,8 +353,10 @@ def _takeda_trial(p, st, th, out):  # pragma: no cover - compiled
         return _skeleton(p, d, th)
     big = 1e300
     if dth > 0.0:
-        if st[6] == 2.0 and m_c <= 0.0:  # reversal from the negative side: crossing ahead
-            out[4] = th_c - m_c / ku
+        if st[6] == 2.0:
+            _degrade(p, st, ku, out)
+            if m_c <= 0.0:  # reversal from the negative side: the crossing is ahead
+                out[4] = th_c - m_c / ku
         out[6] = 1.0
         tmax = st[2]
         rotrel = out[4]
@@ -371,8 +388,10 @@ def _takeda_trial(p, st, th, out):  # pragma: no cover - compiled
                 return m_s, k_s
         return m, k
     # dth < 0
-    if st[6] == 1.0 and m_c >= 0.0:
-        out[5] = th_c - m_c / ku
+    if st[6] == 1.0:
+        _degrade(p, st, ku, out)
+        if m_c >= 0.0:
+            out[5] = th_c - m_c / ku
     out[6] = 2.0
     tmin = st[3]
     rotrel = out[5]
@@ -407,17 +426,10 @@ def _takeda_trial(p, st, th, out):  # pragma: no cover - compiled
 
 @jit
 def _commit(p, st, th, m):  # pragma: no cover - compiled
-    """Store the converged angle and moment; update the energy and the strength factor."""
+    """Store the converged angle and moment; add the work of the step."""
     st[7] += 0.5 * (st[1] + m) * (th - st[0])
     st[0] = th
     st[1] = m
-    ty = p[3]
-    if max(st[2], -st[3]) > ty:
-        ku = _unload_stiffness(p, st[2], st[3])
-        ed = st[7] - m * m / (2.0 * ku)
-        d = max(p[10], 1.0 - p[9] * ed / (p[2] * ty))
-        if d < st[8]:
-            st[8] = d
 
 
 @jit
@@ -580,6 +592,17 @@ class RCState:
         """Energy dissipated so far, J: ``∫ M dθ − M² / (2 k_u)``, shape (N,)."""
         m = self.values[:, _M]
         return self.values[:, _EINT] - m * m / (2.0 * self.unloading_stiffness(springs))
+
+
+def stiffness_periods(geometry: PierGeometry, k: np.ndarray) -> np.ndarray:
+    """Natural periods (s, longest first, shape (N,)) of the link model with spring
+    stiffnesses ``k`` (N·m/rad, shape (N,)), e.g. the small-amplitude ones of a state."""
+    k = np.asarray(k, dtype=float)
+    if k.shape != (geometry.n_levels,) or not np.all(np.isfinite(k) & (k > 0)):
+        raise InputDataError(f"k: expected {geometry.n_levels} positive stiffnesses, got {k!r}")
+    b = angle_matrix(geometry.section_heights_m)
+    w2 = linalg.eigh(b.T @ (k[:, None] * b), np.diag(geometry.masses_kg), eigvals_only=True)
+    return np.sort(2.0 * np.pi / np.sqrt(w2))[::-1]
 
 
 def rayleigh_coefficients(geometry: PierGeometry, springs: RCSprings,

@@ -60,7 +60,7 @@ from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
 from pier_monitor.core.model.solver import Response, simulate
 from pier_monitor.core.synthetic.rc import (HYSTERESIS_FAMILIES, RCSectionTruth, RCSprings,
                                             RCState, integrate_rc, rc_springs_from_design,
-                                            rc_truth)
+                                            rc_truth, stiffness_periods)
 from pier_monitor.core.synthetic.measurement import (ANTI_ALIAS_CUTOFF_FRACTION, ANTI_ALIAS_ORDER,
                                                      SensorError, SensorImperfections,
                                                      anti_alias_filter, draw_sensor_errors,
@@ -394,6 +394,9 @@ class RunTruth:
             "initial_offset_m": self.initial_offset_m.tolist(),
             **({} if self.rc is None else {
                 "rc": self.rc.as_dict(),
+                "rc_small_amplitude_periods_s": {
+                    "before": stiffness_periods(self.geometry, self.rc.k_small_before).tolist(),
+                    "after": stiffness_periods(self.geometry, self.rc.k_small_after).tolist()},
                 "rc_springs": self.rc_springs.as_dict(),  # type: ignore[union-attr]
                 "rayleigh_a0_per_s_a1_s": list(self.rayleigh or ())}),
         }
