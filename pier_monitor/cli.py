@@ -134,7 +134,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="springs of a synthetic bag's pier: bilinear = the model the "
                           "identifier assumes (per-spring dampers); takeda = the RC test-bed "
                           "(modified-Takeda springs: cracking, stiffness degradation, pinching, "
-                          "strength loss; Rayleigh damping; scenario amplitudes of its own; "
+                          "strength loss); bwbn = the RC test-bed with smooth Bouc-Wen-Baber-"
+                          "Noori springs (degradation, pinching). Both: Rayleigh damping, "
+                          "scenario amplitudes of their own, "
                           "truth with idealised DF, bar yield and small-amplitude stiffness). "
                           "Default bilinear")
     sim.add_argument("--bag-format", choices=("mcap", "rosbag2", "mixed"), default="mcap",

@@ -168,9 +168,10 @@ def write_synthetic_bag(out_path: str | Path, *, fmt: BagFormat = "rosbag2", see
         True sensors that differ from the nominal ones; default ideal sensors.
     block_s : float
         Length of a SampleBlock message, s.
-    hysteresis : {"bilinear", "takeda"}
+    hysteresis : {"bilinear", "takeda", "bwbn"}
         Springs of the simulated pier: ``bilinear`` (the identifier's own model) or the RC
-        test-bed's modified Takeda (:mod:`~pier_monitor.core.synthetic.rc`), whose named
+        test-bed's modified Takeda or Bouc–Wen–Baber–Noori springs
+        (:mod:`~pier_monitor.core.synthetic.rc`), whose named
         scenarios have amplitudes of their own and whose truth adds the RC keys.
 
     Returns

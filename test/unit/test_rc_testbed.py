@@ -184,10 +184,12 @@ def test_mass_and_stiffness_damping_matches_the_closed_form_sdof():
     assert run.rayleigh == (a0, a1)
 
 
-def test_energy_balance_of_an_rc_run(edefense):
+@pytest.mark.parametrize("family", ["takeda", "bwbn"])
+def test_energy_balance_of_an_rc_run(edefense, family):
     params = edefense.design
-    springs = rc_springs_from_design(params)
-    gm = synthetic_near_fault(pga_mps2=5.0, seed=1994, duration_s=20.0, dt=0.005,
+    springs = rc_springs_from_design(params, family=family)
+    pga = {"takeda": 5.0, "bwbn": 7.0}[family]  # smooth loops dissipate more: shake harder
+    gm = synthetic_near_fault(pga_mps2=pga, seed=1994, duration_s=20.0, dt=0.005,
                               strong_start_s=4.0, strong_duration_s=8.0)
     run = integrate_rc(edefense.geometry, springs, gm.acc, gm.dt, output_dt=0.001)
     r = run.response
@@ -211,6 +213,33 @@ def test_energy_balance_of_an_rc_run(edefense):
     assert np.all(truth.hysteretic_energy_J > 0)
     # hysteresis dissipates a good share of the input, damping the rest
     assert 0.1 * e_input < np.sum(truth.hysteretic_energy_J) < 0.9 * e_input
+
+
+def test_bwbn_is_smooth_pinches_more_and_degrades_with_cycles():
+    s = rc_springs_from_design(SpringParameters([K1], [1e8], [MY], [1e7]), family="bwbn")
+    # the virgin curve: initial slope k0, through the yield point, final slope kp
+    sk = skeleton_moment(s, 0, np.array([1e-6 * TY, TY, 20.0 * TY, 21.0 * TY]))
+    assert sk[0] / (1e-6 * TY) == pytest.approx(s.k0[0], rel=1e-4)
+    assert sk[1] == pytest.approx(MY, rel=1e-8)
+    assert sk[3] - sk[2] == pytest.approx(s.kp[0] * TY, rel=1e-3)
+    # a first push follows it closely (the degradation has hardly begun)
+    push = _ramp(2.0 * TY)
+    m_push, _ = drive_spring(s, 0, push)
+    np.testing.assert_allclose(m_push, skeleton_moment(s, 0, push), rtol=0.01, atol=0.002 * MY)
+    # no corner: the tangent changes gradually through yield
+    slopes = np.diff(m_push) / np.diff(push)
+    assert np.abs(np.diff(slopes)).max() < 0.01 * s.k0[0]
+    th, m = _loop(s, 4.0 * TY, cycles=4)
+    peaks = m[np.isclose(th, 4.0 * TY)]
+    assert np.all(np.diff(peaks) < 0) and peaks[-1] > 0.85 * peaks[0]
+    # the loop narrows at zero rotation from cycle to cycle (pinching grows with energy)
+    n = th.size // 4
+    widths = []
+    for c in range(4):
+        t2, m2 = th[c * n:(c + 1) * n], m[c * n:(c + 1) * n]
+        crossings = np.flatnonzero(np.diff(np.sign(t2)) != 0)
+        widths.append(np.ptp(m2[crossings]))
+    assert widths[3] < 0.85 * widths[1]
 
 
 def _short(**kw):
@@ -248,26 +277,27 @@ def test_takeda_runs_carry_the_damage_into_the_next_run(edefense):
     assert run1.params == run2.params
 
 
-def test_simulate_takeda_writes_a_readable_bag_and_truth(tmp_path, capsys):
+@pytest.mark.parametrize("family", ["takeda", "bwbn"])
+def test_simulate_rc_writes_a_readable_bag_and_truth(tmp_path, capsys, family):
     out = tmp_path / "rc.mcap"
-    rc = main(["simulate", "--out", str(out), "--hysteresis", "takeda", "--layout", "sparse",
+    rc = main(["simulate", "--out", str(out), "--hysteresis", family, "--layout", "sparse",
                "--scenario", "just_yield", "--no-imperfections"])
     text = capsys.readouterr().out
     assert rc == 0
-    assert "RC springs (takeda)" in text
+    assert f"RC springs ({family})" in text
     recording = read_bag(out)
     assert {s.kind for s in recording.config.sensors} == {"acceleration"}
     assert {s.level for s in recording.config.sensors} == {0, 2, 4}
     npz, js = truth_paths(out)
     meta = json.loads(js.read_text())
-    assert meta["hysteresis"] == "takeda"
+    assert meta["hysteresis"] == family
     run = meta["runs"][0]
     assert set(run["rc"]) >= {"ductility_factor", "yielded", "k_small_before", "k_small_after",
                               "hysteretic_energy_J", "idealised_yield_rotation_rad"}
     assert 1.2 <= run["rc"]["ductility_factor"][0] <= 1.5
     assert run["rc"]["yielded"] == [True, False, False, False]
     truth = load_truth(npz, js)
-    assert truth.hysteresis == "takeda"
+    assert truth.hysteresis == family
     np.testing.assert_allclose(truth.runs[0].rc.ductility_factor, run["rc"]["ductility_factor"])
     assert truth.runs[0].rc_springs.k0 == pytest.approx(run["rc_springs"]["k0_Nm_per_rad"])
     rc = main(["simulate", "--out", str(tmp_path / "r.npz"), "--hysteresis", "takeda"])

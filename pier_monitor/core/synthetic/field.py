@@ -29,7 +29,7 @@ table1     just_yield   1.35, 0.98, 0.71, 0.53, 0.35, 0.18
 
 (table1 at the 200 Hz of ``table1_field.yaml``: the records are drawn at the pier's rate.)
 
-With ``hysteresis="takeda"`` the pier is the RC test-bed of :mod:`~pier_monitor.core.synthetic.rc`
+With ``hysteresis="takeda"`` or ``"bwbn"`` the pier is the RC test-bed of :mod:`~pier_monitor.core.synthetic.rc`
 (cracking, stiffness degradation, pinching, strength loss, Rayleigh damping): the same records
 scaled to each pier's ``rc_pga_mps2``; that module's docstring gives its truth (idealised DF,
 bar yield, small-amplitude stiffness before and after).
@@ -74,15 +74,15 @@ class FieldPier:
         Configuration shipped with the package (full sensor map).
     runs : dict of str to RunSpec
         The run of each shaking.
-    rc_pga_mps2 : dict of str to float
-        Table PGA of each shaking on the RC test-bed (RC springs), m/s².
+    rc_pga_mps2 : dict of str to dict of str to float
+        Table PGA of each shaking on the RC test-bed, by spring family then shaking, m/s².
     """
 
     name: str
     pier_id: str
     config_file: str
     runs: Mapping[str, RunSpec]
-    rc_pga_mps2: Mapping[str, float]
+    rc_pga_mps2: Mapping[str, Mapping[str, float]]
 
 
 _EDEFENSE_AS_BUILT = dict(k1_factors=(1.0, 0.95, 1.05, 0.8), fy_factors=(1.05, 1.0, 1.0, 1.0))
@@ -94,12 +94,14 @@ FIELD_PIERS = {
                           **_EDEFENSE_AS_BUILT),
         "just_yield": RunSpec("just_yield", pga_mps2=3.5, duration_s=_RECORD_S, motion_seed=7,
                               **_EDEFENSE_AS_BUILT),
-    }, {"strong": 3.8, "just_yield": 3.0}),
+    }, {"takeda": {"strong": 3.8, "just_yield": 3.0},
+        "bwbn": {"strong": 6.5, "just_yield": 4.3}}),
     "table1": FieldPier("table1", "table1", "table1_field.yaml", {
         "strong": RunSpec("strong", pga_mps2=3.0, duration_s=_RECORD_S, motion_seed=7),
         "just_yield": RunSpec("just_yield", pga_mps2=1.15, duration_s=_RECORD_S,
                               motion_seed=1994),
-    }, {"strong": 3.0, "just_yield": 1.15}),
+    }, {"takeda": {"strong": 3.0, "just_yield": 1.15},
+        "bwbn": {"strong": 3.0, "just_yield": 1.08}}),
 }
 
 
@@ -135,7 +137,8 @@ def field_scenario(pier: str = "edefense", shaking: str = "strong", *, lead_s: f
         Time of the first sample, ns since the Unix epoch.
     hysteresis : str
         ``bilinear``, or an RC family: then the record is scaled to the pier's
-        ``rc_pga_mps2`` (the RC test-bed's damage, :mod:`~pier_monitor.core.synthetic.rc`).
+        ``rc_pga_mps2`` of that family (the RC test-bed's damage,
+        :mod:`~pier_monitor.core.synthetic.rc`).
 
     Raises
     ------
@@ -150,7 +153,7 @@ def field_scenario(pier: str = "edefense", shaking: str = "strong", *, lead_s: f
     spec = field_pier(pier)
     run = spec.runs[shaking]
     if hysteresis != "bilinear":
-        run = replace(run, pga_mps2=spec.rc_pga_mps2[shaking])
+        run = replace(run, pga_mps2=spec.rc_pga_mps2[hysteresis][shaking])
     return Scenario(runs=(run,), lead_s=lead_s, tail_s=tail_s, start_ns=start_ns)
 
 
@@ -201,7 +204,7 @@ def field_recording(config: PierConfig, layout: str, scenario: Scenario, *, gnss
         Spread of the sensor errors; ``None``: ideal sensors.
     intermediate_levels : tuple of int, optional
         Intermediate levels of the ``sparse`` layout (default: nearest mid-height).
-    hysteresis : {"bilinear", "takeda"}
+    hysteresis : {"bilinear", "takeda", "bwbn"}
         Springs of the simulated pier (:func:`~pier_monitor.core.synthetic.shaking_table.
         generate_recording`).
     """
@@ -230,9 +233,9 @@ def field_case_recording(pier: str, layout: str, gnss: bool = False, shaking: st
     imperfections : SensorImperfections or bool
         The sensors' errors: ``True`` the default :class:`SensorImperfections`, ``False``
         ideal sensors, or a :class:`SensorImperfections` of their own (e.g. no tilt or bias).
-    hysteresis : {"bilinear", "takeda"}
-        ``bilinear``: the identifier's own springs; ``takeda``: the RC test-bed, with its
-        amplitudes (``rc_pga_mps2``) and truth.
+    hysteresis : {"bilinear", "takeda", "bwbn"}
+        ``bilinear``: the identifier's own springs; ``takeda``, ``bwbn``: the RC test-bed,
+        with its amplitudes (``rc_pga_mps2``) and truth.
 
     Returns
     -------

@@ -87,8 +87,8 @@ DEFAULT_START_NS = 1_710_205_200 * NS_PER_S
 DEFAULT_PRINCIPAL_DIRECTION_DEG = 196.0
 
 _INTERNAL_DT_S = 0.001  # SPEC §3: Newmark internal step
-#: Table PGAs (m/s²) of the two runs of :func:`edefense_scenario` with RC springs.
-RC_EDEFENSE_PGA_MPS2 = (3.7, 5.5)
+#: Table PGAs (m/s²) of the two runs of :func:`edefense_scenario` with RC springs, by family.
+RC_EDEFENSE_PGA_MPS2 = {"takeda": (3.7, 5.5), "bwbn": (5.5, 6.0)}
 _RESPONSE_KEYS = ("t", "ag", "x", "v", "a", "theta", "moment")
 _TABLE_KEYS = ("table_velocity", "ag_transverse", "ag_vertical")
 
@@ -270,7 +270,7 @@ def edefense_scenario(*, record_s: float = 40.0, lead_s: float = 20.0, gap_s: fl
     if hysteresis not in HYSTERESIS_FAMILIES:
         raise InputDataError(f"hysteresis: expected one of {list(HYSTERESIS_FAMILIES)}, got "
                              f"{hysteresis!r}")
-    pga = (3.5, 5.5) if hysteresis == "bilinear" else RC_EDEFENSE_PGA_MPS2
+    pga = (3.5, 5.5) if hysteresis == "bilinear" else RC_EDEFENSE_PGA_MPS2[hysteresis]
     seeds = (None, None) if motion_seeds is None else tuple(int(s) for s in motion_seeds)
     if len(seeds) != 2:
         raise InputDataError(f"motion_seeds: expected two seeds (one per run), got {motion_seeds}")
@@ -640,11 +640,12 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         Low-pass every sensor's signal at 0.4 × its rate on the simulation's 1 ms signal
         before sampling it (:func:`~pier_monitor.core.synthetic.measurement.anti_alias_filter`).
         Default: sample the signal as it is.
-    hysteresis : {"bilinear", "takeda"}
+    hysteresis : {"bilinear", "takeda", "bwbn"}
         Springs of the principal response.  ``bilinear``: the link model the identifier
         assumes (:func:`~pier_monitor.core.model.solver.simulate`, per-spring dampers).
-        ``takeda``: the RC test-bed (:func:`~pier_monitor.core.synthetic.rc.integrate_rc`):
-        modified-Takeda springs derived from the first run's parameters
+        ``takeda``, ``bwbn``: the RC test-bed
+        (:func:`~pier_monitor.core.synthetic.rc.integrate_rc`): modified-Takeda or
+        Bouc–Wen–Baber–Noori springs derived from the first run's parameters
         (:func:`~pier_monitor.core.synthetic.rc.rc_springs_from_design`) and Rayleigh
         damping; the springs' state (cracks, yielding, strength loss) and the displacements
         carry from one run to the next, so the later runs' k1/k2/fy/c factors are not used
