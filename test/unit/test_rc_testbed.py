@@ -19,7 +19,7 @@ from pier_monitor.core.model.solver import simulate
 from pier_monitor.core.resources import find_config_file
 from pier_monitor.core.synthetic.rc import (RCSprings, drive_spring, idealised_yield_rotation,
                                             integrate_rc, rc_springs_from_design, rc_truth,
-                                            skeleton_moment)
+                                            skeleton_moment, stiffness_periods)
 from pier_monitor.core.synthetic.shaking_table import (edefense_scenario, generate_recording,
                                                        load_truth)
 
@@ -275,6 +275,12 @@ def test_takeda_runs_carry_the_damage_into_the_next_run(edefense):
                                @ b.T, rtol=0, atol=1e-12)
     # the same springs in both runs (run 2's parameter factors are damage of the bilinear)
     assert run1.params == run2.params
+    # periods of the small-amplitude stiffnesses: the cracked pier starts run 2 softer
+    np.testing.assert_allclose(run2.periods_s,
+                               stiffness_periods(run2.geometry, run1.rc.k_small_after))
+    assert run2.periods_s[0] > 1.2 * run1.periods_s[0]
+    after = run1.summary()["rc_small_amplitude_periods_s"]["after"]
+    assert after[0] > run1.periods_s[0]
 
 
 @pytest.mark.parametrize("family", ["takeda", "bwbn"])

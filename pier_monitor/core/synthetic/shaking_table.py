@@ -9,7 +9,8 @@ and its own table motion.
 Physics of one run
     The link model (SPEC §3) is integrated in the principal direction with
     :func:`~pier_monitor.core.model.solver.simulate` (internal step 1 ms, output at the sensors'
-    rate) under the principal component of the table acceleration, a
+    rate; with ``hysteresis`` ``takeda`` or ``bwbn`` the RC test-bed's
+    :func:`~pier_monitor.core.synthetic.rc.integrate_rc` instead) under the principal component of the table acceleration, a
     :func:`~pier_monitor.core.model.ground_motion.synthetic_near_fault` record.  The table also
     moves transversely (a weaker record of its own) and vertically (a higher-frequency
     record); the transverse response is the same link model kept elastic, the pier is rigid
@@ -322,7 +323,8 @@ class RunTruth:
     ductility_factors : ndarray, shape (N,)
         ``max |θ_n| / θy_n`` over the record.
     periods_s : ndarray, shape (N,)
-        Elastic natural periods of the run's pier, longest first, s.
+        Elastic natural periods of the run's pier, longest first, s (RC springs: those of
+        the small-amplitude stiffnesses at the start of the run).
     pga_mps2 : float
         Peak principal table acceleration over the record (idle motion included), m/s².
     motion_seeds : tuple of int
@@ -330,7 +332,8 @@ class RunTruth:
     rc : RCSectionTruth or None
         With RC springs (``hysteresis`` other than ``bilinear``): the per-section truth an
         engineer compares with (:mod:`~pier_monitor.core.synthetic.rc`); then
-        ``ductility_factors`` are its idealised ductility factors, ``params`` the as-built
+        ``ductility_factors`` are its idealised ductility factors, ``periods_s`` those of its
+        small-amplitude stiffnesses at the start, ``params`` the as-built
         bilinear design the springs derive from, ``response.theta`` the springs' true angles
         (``B (initial_offset_m + response.x)``: they include the residual rotation).
     rc_springs : RCSprings or None
@@ -777,7 +780,8 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
             initial_offset_m=offset.copy(),
             ductility_factors=(ductility_factors(response.theta, params) if truth_rc is None
                                else truth_rc.ductility_factor),
-            periods_s=natural_periods(geometry, params),
+            periods_s=(natural_periods(geometry, params) if truth_rc is None
+                       else stiffness_periods(geometry, truth_rc.k_small_before)),
             pga_mps2=float(np.max(np.abs(response.ag))),
             motion_seeds=seeds,
             rc=truth_rc,
