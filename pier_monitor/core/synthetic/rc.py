@@ -33,7 +33,7 @@ Spring families
     scaled by ``D = max(d_min, 1 − β_E E_d / (My θy))`` (never increasing), updated at each
     reversal (as Ibarra, Medina & Krawinkler 2005 do per excursion), ``E_d`` the energy
     dissipated so far (``∫ M dθ`` less the elastic energy ``M² / 2 k_u`` still stored), so a
-    full cycle at a ductility of about 4 loses about 3 % of strength; a monotonic push
+    full cycle at a ductility of about 4 loses about 2 % of strength; a monotonic push
     follows the virgin skeleton.
 
 ``bwbn``
@@ -95,32 +95,34 @@ shakings), so that the base just yields (idealised DF 1.2–1.5) or is heavily d
 (DF ≳ 3) and the upper sections crack without yielding.  Measured with the default stretches
 and the sparse layout (the truth does not depend on the layout or the seed); DF on the
 idealised yield rotation, ``*`` = bars yielded, small-amplitude stiffness change over the
-run, first period from the small-amplitude stiffnesses before → after.  ``takeda``:
+run, first period from the small-amplitude stiffnesses before → after; ``run 1``, ``run 2``
+are the two-run test of :func:`~pier_monitor.core.synthetic.shaking_table.edefense_scenario`.
+``takeda``:
 
-========  ==============  =======  ===============================  =======================  ===========
-pier      shaking         PGA      DF, sections bottom to top        k_small change, %        T1, s
-========  ==============  =======  ===============================  =======================  ===========
-edefense  strong          3.8      3.23* 0.99 0.88 0.55             −62 −37 −34 −20          0.81 → 1.18
-edefense  just_yield      3.0      1.32* 0.89 0.79 0.49             −44 −35 −31 −17          0.81 → 1.04
-table1    strong          3.0      4.83* 2.42* 0.74 0.53 0.31 0.16  −67 −57 −29 −19 0 0      1.55 → 2.34
-table1    just_yield      1.15     1.37* 0.93 0.64 0.45 0.26 0.16   −45 −36 −25 −14 0 0      1.55 → 1.94
-edefense  two-run, run 1  3.7      1.28* 0.89 0.80 0.50             −44 −35 −32 −17          0.81 → 1.04
-edefense  two-run, run 2  5.5      4.56* 1.81* 0.93 0.58            −40 −26 −6 −6            1.12 → 1.38
-========  ==============  =======  ===============================  =======================  ===========
+======== ========== ==== =============================== =================== ===========
+pier     shaking    PGA  DF, sections bottom to top      k_small change, %   T1, s
+======== ========== ==== =============================== =================== ===========
+edefense strong     3.8  3.23* 0.99 0.88 0.55            −62 −37 −34 −20     0.81 → 1.18
+edefense just_yield 3.0  1.32* 0.89 0.79 0.49            −44 −35 −31 −17     0.81 → 1.04
+table1   strong     3.0  4.83* 2.42* 0.74 0.53 0.31 0.16 −67 −57 −29 −19 0 0 1.55 → 2.34
+table1   just_yield 1.15 1.37* 0.93 0.64 0.45 0.26 0.16  −45 −36 −25 −14 0 0 1.55 → 1.94
+edefense run 1      3.7  1.28* 0.89 0.80 0.50            −44 −35 −32 −17     0.81 → 1.04
+edefense run 2      5.5  4.56* 1.81* 0.93 0.58           −40 −26 −6 −6       1.12 → 1.38
+======== ========== ==== =============================== =================== ===========
 
 ``bwbn`` (its smooth loops dissipate more at small amplitudes; higher PGAs for the same
 damage; the hardening skeleton lets the moment above a yielded base reach yield sooner):
 
-========  ==============  =======  ===============================  =======================  ===========
-pier      shaking         PGA      DF, sections bottom to top        k_small change, %        T1, s
-========  ==============  =======  ===============================  =======================  ===========
-edefense  strong          6.5      3.25* 1.23* 0.90 0.46            −79 −56 −33 −4           0.81 → 1.52
-edefense  just_yield      4.3      1.30* 0.89 0.70 0.39             −61 −27 −14 −2           0.81 → 1.14
-table1    strong          3.0      3.36* 1.94* 0.67 0.43 0.27 0.16  −76 −63 −10 −2 0 0      1.55 → 2.56
-table1    just_yield      1.08     1.20* 0.99 0.52 0.36 0.22 0.16   −48 −32 −5 −1 0 0        1.55 → 1.90
-edefense  two-run, run 1  5.5      1.31* 0.89 0.70 0.39             −54 −29 −16 −2           0.81 → 1.08
-edefense  two-run, run 2  6.0      3.98* 1.53* 1.01* 0.48           −55 −53 −36 −4           1.17 → 1.71
-========  ==============  =======  ===============================  =======================  ===========
+======== ========== ==== =============================== =================== ===========
+pier     shaking    PGA  DF, sections bottom to top      k_small change, %   T1, s
+======== ========== ==== =============================== =================== ===========
+edefense strong     6.5  3.25* 1.23* 0.90 0.46           −79 −56 −33 −4      0.81 → 1.52
+edefense just_yield 4.3  1.30* 0.89 0.70 0.39            −61 −27 −14 −2      0.81 → 1.14
+table1   strong     3.0  3.36* 1.94* 0.67 0.43 0.27 0.16 −76 −63 −10 −2 0 0  1.55 → 2.56
+table1   just_yield 1.08 1.20* 0.99 0.52 0.36 0.22 0.16  −48 −32 −5 −1 0 0   1.55 → 1.90
+edefense run 1      5.5  1.31* 0.89 0.70 0.39            −54 −29 −16 −2      0.81 → 1.08
+edefense run 2      6.0  3.98* 1.53* 1.01* 0.48          −55 −53 −36 −4      1.17 → 1.71
+======== ========== ==== =============================== =================== ===========
 
 Small-amplitude stiffness (``takeda``), GN·m/rad, before → after: edefense (all runs start at
 1.92 1.82 2.02 1.92) strong 0.74 1.15 1.33 1.53, just_yield 1.07 1.19 1.38 1.60, run 1
@@ -699,6 +701,8 @@ class RCState:
         Per spring: angle (rad), moment (N·m), largest and smallest angle so far (rad),
         zero-moment crossings aimed from for positive and negative reloading (rad), last
         loading direction (0 none, 1 positive, 2 negative), ``∫ M dθ`` (J), strength factor.
+        ``bwbn`` keeps its hysteretic rotation ``z`` (rad) and normalised energy ``ε`` in the
+        columns of the two crossings.
     """
 
     values: np.ndarray
@@ -867,7 +871,8 @@ def integrate_rc(geometry: PierGeometry, springs: RCSprings, ag: np.ndarray, ag_
     n = geometry.n_levels
     ag = np.asarray(ag, dtype=float)
     if ag.ndim != 1 or ag.size < 2:
-        raise InputDataError(f"ag: expected a 1-D record of at least 2 samples, got shape {ag.shape}")
+        raise InputDataError(f"ag: expected a 1-D record of at least 2 samples, got shape "
+                             f"{ag.shape}")
     if not np.all(np.isfinite(ag)):
         i = int(np.flatnonzero(~np.isfinite(ag))[0])
         raise InputDataError(f"ag: non-finite value at sample {i} (t = {i * ag_dt:.4f} s)")
