@@ -37,6 +37,7 @@ from pier_monitor.core.model.config import load_config
 from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
 from pier_monitor.core.model.solver import simulate
 from pier_monitor.core.synthetic.measurement import SensorImperfections
+from pier_monitor.core.synthetic.rc import HYSTERESIS_FAMILIES
 from pier_monitor.core.synthetic.reference import table1_model
 from pier_monitor.fleet import FleetOptions, FleetProgress, LocalPool, RayBackend, run_fleet
 from pier_monitor.core.identify.methods import METHODS, IdentifySettings
@@ -129,6 +130,15 @@ def build_parser() -> argparse.ArgumentParser:
                           "strong / just_yield = one earthquake that yields the lower sections / "
                           "only just yields the base, for the E-Defense-like or Table 1 pier "
                           "(default: edefense, or strong with --layout)")
+    sim.add_argument("--hysteresis", choices=HYSTERESIS_FAMILIES, default="bilinear",
+                     help="springs of a synthetic bag's pier: bilinear = the model the "
+                          "identifier assumes (per-spring dampers); takeda = the RC test-bed "
+                          "(modified-Takeda springs: cracking, stiffness degradation, pinching, "
+                          "strength loss); bwbn = the RC test-bed with smooth Bouc-Wen-Baber-"
+                          "Noori springs (degradation, pinching). Both: Rayleigh damping, "
+                          "scenario amplitudes of their own, "
+                          "truth with idealised DF, bar yield and small-amplitude stiffness). "
+                          "Default bilinear")
     sim.add_argument("--bag-format", choices=("mcap", "rosbag2", "mixed"), default="mcap",
                      help="bag format of the fleet's piers (mixed: alternating)")
     sim.add_argument("--record-s", type=_positive_float, default=30.0,
@@ -399,9 +409,9 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 def _simulate_npz(args: argparse.Namespace) -> int:
     if args.layout is not None or args.gnss or args.scenario is not None \
-            or args.imperfections is not None:
-        raise PierMonitorError("--layout/--gnss/--scenario/--imperfections apply to bags; "
-                               f"{args.out} is .npz responses")
+            or args.imperfections is not None or args.hysteresis != "bilinear":
+        raise PierMonitorError("--layout/--gnss/--scenario/--imperfections/--hysteresis apply "
+                               f"to bags; {args.out} is .npz responses")
     if args.pier is not None:
         cfg = load_config(args.pier)
         geometry, params, name = cfg.geometry, cfg.design, cfg.pier_id
@@ -457,15 +467,17 @@ def _simulate_bag(args: argparse.Namespace) -> int:
     info = write_synthetic_bag(args.out, fmt=fmt, seed=0 if args.seed is None else args.seed,
                                config_path=args.pier, scenario=scenario, layout=layout,
                                gnss=args.gnss,
-                               imperfections=SensorImperfections() if imperfect else None)
+                               imperfections=SensorImperfections() if imperfect else None,
+                               hysteresis=args.hysteresis)
     print(_bag_summary(info))
     return 0
 
 
 def _simulate_fleet(args: argparse.Namespace) -> int:
-    if args.gnss or args.scenario is not None or args.imperfections is not None:
-        raise PierMonitorError("--gnss/--scenario/--imperfections apply to one bag; the fleet's "
-                               "piers have scenarios and ideal sensors of their own")
+    if args.gnss or args.scenario is not None or args.imperfections is not None \
+            or args.hysteresis != "bilinear":
+        raise PierMonitorError("--gnss/--scenario/--imperfections/--hysteresis apply to one bag; "
+                               "the fleet's piers have scenarios and ideal sensors of their own")
     written = write_synthetic_fleet(args.out, args.fleet, seed=0 if args.seed is None else
                                     args.seed, layouts=tuple(args.layout or ("full",)),
                                     fmt=args.bag_format, record_s=args.record_s)
@@ -501,6 +513,15 @@ def _bag_summary(info: SyntheticBagInfo) -> str:
         win = f"{r['window_s'][0]:.2f}-{r['window_s'][1]:.2f}"
         lines.append(f"{r['name']:<{w}} {r['start_s']:>8.2f} {win:>20} {r['pga_mps2']:>9.2f} "
                      f"{r['first_period_s']:>6.3f}  {', '.join(f'{d:.2f}' for d in r['ductility_factors'])}")
+    if any("rc" in r for r in s["runs"]):
+        lines.append(f"RC springs ({s['hysteresis']}): DF on the idealised yield rotation, "
+                     "bars yielded, small-amplitude stiffness before -> after (GN*m/rad)")
+        for r in s["runs"]:
+            rc = r["rc"]
+            cells = [f"{df:.2f}{' Y' if y else '  '} {kb / 1e9:.2f}->{ka / 1e9:.2f}"
+                     for df, y, kb, ka in zip(rc["ductility_factor"], rc["yielded"],
+                                              rc["k_small_before"], rc["k_small_after"])]
+            lines.append(f"{r['name']:<{w}} " + " | ".join(cells))
     return "\n".join(lines)
 
 

@@ -83,6 +83,7 @@ class SyntheticBagInfo:
             "truth_npz": str(self.truth_npz), "truth_json": str(self.truth_json),
             "config": str(self.config_path), "seed": self.truth.seed,
             "layout": self.layout, "gnss": self.gnss, "sensors": len(self.config.sensors),
+            "hysteresis": self.truth.hysteresis,
             "imperfect_sensors": self.truth.imperfections is not None,
             "anti_alias": self.truth.anti_alias,
             "duration_s": (self.truth.end_ns - t0) / NS_PER_S, "elapsed_s": self.elapsed_s,
@@ -94,6 +95,7 @@ class SyntheticBagInfo:
                 "pga_mps2": r.pga_mps2,
                 "first_period_s": float(r.periods_s[0]),
                 "ductility_factors": [round(float(d), 3) for d in r.ductility_factors],
+                **({} if r.rc is None else {"rc": r.rc.as_dict()}),
             } for r in self.truth.runs],
         }
 
@@ -132,7 +134,8 @@ def write_synthetic_bag(out_path: str | Path, *, fmt: BagFormat = "rosbag2", see
                         scenario: Scenario | str | None = None, layout: str | None = None,
                         gnss: bool = False,
                         imperfections: SensorImperfections | None = None,
-                        block_s: float = DEFAULT_BLOCK_S) -> SyntheticBagInfo:
+                        block_s: float = DEFAULT_BLOCK_S,
+                        hysteresis: str = "bilinear") -> SyntheticBagInfo:
     """Simulate a synthetic test of a pier and write it as a bag plus ground truth.
 
     Without ``layout`` the pier is recorded with its configuration's sensor map, as it is;
@@ -165,6 +168,11 @@ def write_synthetic_bag(out_path: str | Path, *, fmt: BagFormat = "rosbag2", see
         True sensors that differ from the nominal ones; default ideal sensors.
     block_s : float
         Length of a SampleBlock message, s.
+    hysteresis : {"bilinear", "takeda", "bwbn"}
+        Springs of the simulated pier: ``bilinear`` (the identifier's own model) or the RC
+        test-bed's modified Takeda or Bouc–Wen–Baber–Noori springs
+        (:mod:`~pier_monitor.core.synthetic.rc`), whose named
+        scenarios have amplitudes of their own and whose truth adds the RC keys.
 
     Returns
     -------
@@ -188,14 +196,15 @@ def write_synthetic_bag(out_path: str | Path, *, fmt: BagFormat = "rosbag2", see
     config_path = Path(config_path) if config_path is not None else default_edefense_config()
     config = load_config(config_path)
     if isinstance(scenario, str):
-        scenario = named_scenario(scenario, config.pier_id)
+        scenario = named_scenario(scenario, config.pier_id, hysteresis)
     if layout is None:
-        synthetic = generate_recording(config, scenario, seed=seed, imperfections=imperfections)
+        synthetic = generate_recording(config, scenario, seed=seed, imperfections=imperfections,
+                                       hysteresis=hysteresis)
     else:
         if scenario is None:
             raise InputDataError("scenario: a field bag needs a scenario (e.g. 'strong')")
         synthetic = field_recording(config, layout, scenario, gnss=gnss, seed=seed,
-                                    imperfections=imperfections)
+                                    imperfections=imperfections, hysteresis=hysteresis)
     recorded = synthetic.recording.config
     bag = write_bag(synthetic.recording, out_path, fmt=fmt, block_s=block_s)
     save_truth(synthetic.truth, npz_path, json_path, config=recorded)
