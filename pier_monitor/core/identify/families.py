@@ -74,6 +74,10 @@ __all__ = ["FamilyFit", "SectionFamilies", "FamilyChoice", "moment_noise_varianc
 
 #: Free parameters of each family (the damper ``c`` included).
 N_PARAMS = {"bilinear": 4, "takeda": 8}
+#: Free parameters of each family held below yield over the window: the bilinear is then
+#: linear (``k1, c``); the Takeda keeps its uncracked and cracked branches and its pinching
+#: (``k0, Mc, cracked slope, pinch_x, pinch_y, c``).
+N_PARAMS_UNYIELDED = {"bilinear": 2, "takeda": 6}
 
 #: Numbers measured with this module (kept with the code; see the module docstring).
 MEASURED: dict[str, Any] = {}
@@ -132,6 +136,10 @@ class SectionFamilies:
         Moment noise variance of the noise model, (N·m)².
     peak_rotation : float
         Peak ``|θ|`` of the window, rad.
+    yielded : dict of str to bool
+        Per family: the fit passes its yield point within the window and beats the same
+        family held below yield (lower BIC, :data:`N_PARAMS_UNYIELDED`).  When false the
+        yield rotation is an extrapolation beyond the data and the DF is at most 1.
     """
 
     fits: dict[str, FamilyFit]
@@ -139,6 +147,7 @@ class SectionFamilies:
     n_eff: float
     noise_var: float
     peak_rotation: float
+    yielded: dict[str, bool]
 
     @property
     def best(self) -> str:
@@ -167,7 +176,9 @@ class FamilyChoice:
     idealised_yield_rotation : ndarray
         Equal-energy idealised yield rotation of the chosen family's skeleton, rad.
     ductility_factor : ndarray
-        ``peak_rotation / idealised_yield_rotation``.
+        ``peak_rotation / idealised_yield_rotation``; at most 1 where ``yielded`` is false.
+    yielded : ndarray of bool
+        The chosen family's fit yielded within the window (:attr:`SectionFamilies.yielded`).
     k1 : ndarray
         The bilinear fit's ``k1``, N·m/rad (for comparison).
     initial_stiffness : ndarray
@@ -190,6 +201,7 @@ class FamilyChoice:
     peak_rotation: np.ndarray
     idealised_yield_rotation: np.ndarray
     ductility_factor: np.ndarray
+    yielded: np.ndarray
     k1: np.ndarray
     initial_stiffness: np.ndarray
     secant_yield_stiffness: np.ndarray
@@ -205,8 +217,9 @@ class FamilyChoice:
                      "initial_stiffness", "secant_yield_stiffness", "secant_peak_stiffness",
                      "small_amplitude_stiffness", "stiffness_degradation"):
             out[name] = [float(v) for v in getattr(self, name)]
+        out["yielded"] = [bool(v) for v in self.yielded]
         out["sections"] = [
-            {"n_eff": s.n_eff, "noise_var": s.noise_var, "best": s.best,
+            {"n_eff": s.n_eff, "yielded": dict(s.yielded), "noise_var": s.noise_var, "best": s.best,
              "fits": {k: {"params": f.params, "c": f.c, "rss": f.rss, "bic": f.bic,
                           "n_params": f.n_params} for k, f in s.fits.items()}}
             for s in self.sections]
@@ -295,6 +308,16 @@ class _Problem:
     def tak_moment(self, x: np.ndarray) -> np.ndarray:
         _takeda_kernel(self.tak_array(x), self.theta, self.buf)
         return self.buf
+
+    # Takeda held below yield: x[0] = log(θy / θp) >= 0 instead of log(k_y / k_ref)
+    def unyielded_to_full(self, x: np.ndarray, theta_peak: float) -> np.ndarray:
+        my = self.f_ref * np.exp(x[2])
+        ky = my / (theta_peak * np.exp(x[0]))
+        return np.concatenate(([np.log(ky / self.k_ref)], x[1:]))
+
+    def full_to_unyielded(self, x: np.ndarray, theta_peak: float) -> np.ndarray:
+        pa = self.tak_array(x)
+        return np.concatenate(([np.log(max(pa[3] / theta_peak, 1.0))], x[1:]))
 
     def residual(self, moment_fn, x: np.ndarray) -> np.ndarray:
         m = moment_fn(x)
@@ -391,17 +414,39 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
                   for px, py in ((1.0, 1.0), (0.6, 0.4))]
     xt = _solve(prob, prob.tak_moment, tak_starts, _TAK_LO, _TAK_HI, 4)
 
+    # The same Takeda held below its yield point over the window (θy >= θp): cracking and
+    # degradation only.  The section yielded in the Takeda family only if the full fit is
+    # better by the BIC; otherwise its yield rotation is an extrapolation beyond the data.
+    def tak_unyielded(x: np.ndarray) -> np.ndarray:
+        return prob.tak_moment(prob.unyielded_to_full(x, peak))
+
+    lo_u = np.concatenate(([0.0], _TAK_LO[1:]))
+    hi_u = np.concatenate(([np.log(20.0)], _TAK_HI[1:]))
+    base = prob.full_to_unyielded(xt, peak)
+    un_starts = [np.concatenate(([u], base[1:])) for u in (0.0, 0.1, 0.3, 0.7)]
+    un_starts += [np.concatenate(([u], st[1:])) for u in (0.0, 0.3) for st in tak_starts[::4]]
+    xu = _solve(prob, tak_unyielded, un_starts, lo_u, hi_u, 2)
+    # the elastic reference of the bilinear: M = k θ, with c
+    cols = np.column_stack([prob.theta, prob.thd])
+    k_el, c_el = np.linalg.lstsq(cols, prob.g, rcond=None)[0]
     res = {"bilinear": prob.residual(prob.bil_moment, xb) * prob.scale,
            "takeda": prob.residual(prob.tak_moment, xt) * prob.scale}
+    res_ref = {"takeda": prob.residual(tak_unyielded, xu) * prob.scale,
+               "bilinear": prob.g - cols @ np.array([k_el, c_el])}
     rss = {k: float(np.dot(r, r)) for k, r in res.items()}
     better = min(rss, key=rss.get)
     rho = min(max(_lag1(res[better]), 0.0), 0.98)
     n_eff = max(t_len * (1.0 - rho) / (1.0 + rho), 2.0)
     floor = max(float(noise_var), 1e-300)
 
+    def bic_of(rss_: float, n_par: int) -> float:
+        return float(n_eff * np.log(max(rss_ / t_len, floor)) + n_par * np.log(n_eff))
+
     def bic(family: str) -> float:
-        return float(n_eff * np.log(max(rss[family] / t_len, floor))
-                     + N_PARAMS[family] * np.log(n_eff))
+        return bic_of(rss[family], N_PARAMS[family])
+
+    yielded = {fam: bic(fam) < bic_of(float(np.dot(res_ref[fam], res_ref[fam])),
+                                      N_PARAMS_UNYIELDED[fam]) for fam in N_PARAMS}
 
     k1, k2, fy = prob.bil_params(xb)
     c_b = _project_c(prob.bil_moment(xb).copy(), prob.g, prob.thd, prob.tdd)
@@ -414,8 +459,10 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
                                "k_y": tp.k_y, "kp": tp.kp, "alpha": tp.alpha,
                                "pinch_x": tp.pinch_x, "pinch_y": tp.pinch_y},
                     c_t, rss["takeda"], N_PARAMS["takeda"], bic("takeda"), takeda_skeleton(tp))
-    return SectionFamilies({"bilinear": bil, "takeda": tak}, t_len, float(n_eff),
-                           float(noise_var), peak)
+    fits = {"bilinear": bil, "takeda": tak}
+    yielded = {fam: bool(yielded[fam] and peak > fits[fam].skeleton.theta_first_yield)
+               for fam in fits}
+    return SectionFamilies(fits, t_len, float(n_eff), float(noise_var), peak, yielded)
 
 
 def _takeda_of(fit: FamilyFit) -> TakedaParameters:
@@ -474,6 +521,9 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
     peak = np.array([s.peak_rotation for s in sections])
     ty_id = np.array([idealised_yield(s.fits[family].skeleton, s.peak_rotation)
                       for s in sections])
+    yielded = np.array([s.yielded[family] for s in sections])
+    # a section that did not yield in the data: its yield rotation is extrapolated, DF <= 1
+    df = np.where(yielded, peak / ty_id, np.minimum(peak / ty_id, 1.0))
     k1 = np.array([f.k1 for f in bilinear_fits])
     init, sec_y, sec_p, small = (np.empty(n) for _ in range(4))
     for j, s in enumerate(sections):
@@ -488,6 +538,6 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
             init[j] = sec_y[j] = small[j] = fit.params["k1"]
     return FamilyChoice(family=family, sections=sections, bic_total=totals, reason=reason,
                         peak_rotation=peak, idealised_yield_rotation=ty_id,
-                        ductility_factor=peak / ty_id, k1=k1, initial_stiffness=init,
+                        ductility_factor=df, yielded=yielded, k1=k1, initial_stiffness=init,
                         secant_yield_stiffness=sec_y, secant_peak_stiffness=sec_p,
                         small_amplitude_stiffness=small, stiffness_degradation=small / init - 1.0)

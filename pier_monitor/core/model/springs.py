@@ -24,7 +24,8 @@ installed (:mod:`pier_monitor.core._jit`).
       towards the previous peak of that side on the skeleton (the cracking point while that
       side has not cracked), through the pinch point: moment ``pinch_y · Mpeak`` at a fraction
       ``pinch_x`` of the way from the crossing to where unloading from the peak would reach
-      that moment.  ``pinch_x = pinch_y = 1`` is the unpinched Takeda rule;
+      that moment.  ``pinch_y = 1`` is the unpinched Takeda rule (straight to the peak;
+      ``pinch_x`` is then unused);
     * the moment is the lower (in absolute value) of the reloading curve and the unloading
       line from the last state, so inner loops follow the same two rules; past the previous
       peak the spring is back on the skeleton.
@@ -93,7 +94,7 @@ class TakedaParameters:
         Unloading exponent, ``0 <= alpha <= 1``.
     pinch_x, pinch_y : float
         Pinch point of reloading (fractions of rotation and of the peak moment), in ``(0, 1]``;
-        1 and 1 = no pinching.
+        ``pinch_y = 1``: no pinching.
     """
 
     k0: float
@@ -166,6 +167,8 @@ def _takeda_skel(k0, mc, my, ty, kp, th):  # pragma: no cover - compiled
 @jit
 def _reload(th, t0, tpk, mpk, ku, px, py):  # pragma: no cover - compiled
     """Reloading curve from the crossing ``t0`` to the peak ``(tpk, mpk)``, either sign."""
+    if py >= 1.0:  # no pinching: straight to the peak
+        return mpk * (th - t0) / (tpk - t0)
     t2 = tpk - (1.0 - py) * mpk / ku  # where unloading from the peak reaches py·mpk
     tch = t0 + px * (t2 - t0)
     span = tpk - t0
@@ -362,9 +365,12 @@ def idealised_yield(skel: Skeleton, theta_peak: float) -> float:
         θ* = (2 A − Mp θp) / (k_y θp − Mp),   A = ∫₀^θp S(θ) dθ
 
     (RC_NOTES: equal-energy bilinearisation gives much the same as ``θ'y Mn / M'y``).  While
-    ``θp <= θ'y`` the spring has not yielded and ``θ* = θ'y``; just past first yield, where
-    the formula would put ``θ*`` beyond ``θp`` (a skeleton stiffer than ``k_y`` below yield,
-    as the uncracked branch makes it), ``θ* = θp`` (DF 1).  For the bilinear skeleton
+    ``θp <= θ'y`` the spring has not yielded and ``θ* = θ'y``.  ``θ*`` is at most ``Mp / k_y``,
+    the elastic branch extended to the peak moment (RC_NOTES' ``θ'y Mn / M'y`` with
+    ``Mn = Mp``): just past first yield a skeleton stiffer than ``k_y`` below yield (the
+    uncracked branch) holds more energy than the elastic triangle and the equal-energy point
+    runs off.  This is the RC test-bed's truth
+    (:func:`pier_monitor.core.synthetic.rc.idealised_yield_rotation`).  For the bilinear skeleton
     ``θ* = fy/k1`` exactly whatever ``θp`` (the skeleton is its own bilinearisation), so a
     ductility factor ``θp / θ*`` means the same thing for every family.
 
@@ -384,9 +390,10 @@ def idealised_yield(skel: Skeleton, theta_peak: float) -> float:
     ky = skel.m_first_yield / ty
     mp = float(skel(tp))
     den = ky * tp - mp
-    if den <= 0:  # no softening after first yield: the skeleton is elastic to θp
-        return ty
-    # Just past first yield a skeleton that is stiffer than k_y below yield (the uncracked
-    # branch) encloses more area than any bilinear of slope k_y ending at (θp, Mp): the
-    # formula then puts θ* beyond θp.  The idealised spring is then elastic up to the peak.
-    return min((2.0 * skel.area(tp) - mp * tp) / den, tp)
+    # Just past first yield a skeleton stiffer than k_y below yield (the uncracked branch)
+    # encloses more area than the elastic triangle and the equal-energy point runs off: cap
+    # at the elastic branch extended to the peak moment (θ'y Mn / M'y with Mn = Mp).
+    cap = mp / ky
+    if den <= 0:
+        return cap
+    return min((2.0 * skel.area(tp) - mp * tp) / den, cap)
