@@ -42,7 +42,8 @@ def run_case(pier: str, shaking: str, hysteresis: str, seed: int) -> dict:
     df_bil = ch.peak_rotation / np.array([s.fits["bilinear"].skeleton.theta_first_yield
                                           for s in ch.sections])
     return dict(case=f"{pier}/{shaking}/{hysteresis}/seed{seed}", chosen=ch.family,
-                reason=ch.reason, df=ch.ductility_factor, yielded=ch.yielded, df_true=df_true, df_bilinear=df_bil,
+                reason=ch.reason, df=ch.ductility_factor, yielded=ch.yielded, df_true=df_true,
+                df_bilinear=df_bil,
                 k1=ch.k1, k0=ch.initial_stiffness, ky=ch.secant_yield_stiffness,
                 degr=100 * ch.stiffness_degradation, degr_true=k_change_true, seconds=dt,
                 bic=ch.bic_total)
@@ -57,8 +58,8 @@ def main(seeds: list[int]) -> None:
                     r = run_case(pier, shaking, hyst, seed)
                     print(f"{r['case']}: chosen {r['chosen']} ({r['seconds']:.1f} s); "
                           f"BIC {r['bic']}")
-                    print(f"   DF chosen {r['df']}\n   DF true   {r['df_true']}\n"
-                          f"   DF bilin. {r['df_bilinear']}")
+                    print(f"   DF chosen {r['df']} yielded {r['yielded']}\n"
+                          f"   DF true   {r['df_true']}\n   DF bilin. {r['df_bilinear']}")
                     print(f"   k1 {r['k1']}\n   k0 {r['k0']}\n   ky {r['ky']}")
                     print(f"   k_small change % {r['degr']}  true {r['degr_true']}")
                     print(f"   {r['reason']}", flush=True)

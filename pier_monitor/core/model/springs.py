@@ -114,7 +114,8 @@ class TakedaParameters:
         if not all(np.isfinite(v) for v in vals.values()):
             raise InputDataError(f"Takeda parameters: expected finite values, got {vals}")
         if not (vals["k0"] > 0 and vals["my"] > 0 and vals["theta_y"] > 0):
-            raise InputDataError(f"Takeda parameters: k0, my, theta_y must be positive, got {vals}")
+            raise InputDataError(f"Takeda parameters: k0, my, theta_y must be positive, got "
+                                 f"{vals}")
         if not 0 < vals["mc"] < vals["my"]:
             raise InputDataError(f"Takeda parameters: expected 0 < mc < my, got mc={vals['mc']}, "
                                  f"my={vals['my']}")
