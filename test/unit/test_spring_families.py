@@ -7,7 +7,11 @@ import numpy as np
 import pytest
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
+from pier_monitor.core.identify.equation_error import (
+    SpringFit,
+    fit_equation_error,
+    inertia_moments,
+)
 from pier_monitor.core.identify.families import fit_families, moment_noise_variance
 from pier_monitor.core.model.ground_motion import synthetic_near_fault
 from pier_monitor.core.model.link_model import angle_matrix, bilinear_step
@@ -99,6 +103,15 @@ def test_takeda_parameters_and_histories_are_checked():
         TakedaParameters(k0=10.0, mc=5.0, my=4.0, theta_y=1.0, kp=0.2)
     with pytest.raises(InputDataError, match="non-finite angle .* at sample 1"):
         takeda_moment(np.array([0.0, np.nan]), SMALL)
+
+
+def test_fit_families_checks_its_inputs():
+    th = np.zeros((50, 2))
+    fit = SpringFit(1e9, 1e8, 5e6, 2e7, False, 1.0, 1.0, 0)
+    with pytest.raises(InputDataError, match=r"g: expected shape \(50, 2\)"):
+        fit_families(th, th, th[:, :1], np.ones(2), (fit, fit))
+    with pytest.raises(InputDataError, match="angle is zero over the whole window"):
+        fit_families(th, th, th, np.ones(2), (fit, fit))
 
 
 def _fit_pier(geometry, x, v, a, ag, design, noise):

@@ -421,8 +421,11 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
     if not (k1b > 0 and fyb > 0 and 0 <= k2b < k1b):
         raise InputDataError(f"bilinear_fit: expected k1 > 0, 0 <= k2 < k1, fy > 0, got "
                              f"k1={k1b}, k2={k2b}, fy={fyb}")
-    prob = _Problem(theta, theta_dot, g, k1b, fyb)
     peak = float(np.max(np.abs(theta)))
+    if peak == 0:
+        raise InputDataError("theta: the section's angle is zero over the whole window; no "
+                             "spring family can be fitted")
+    prob = _Problem(theta, theta_dot, g, k1b, fyb)
 
     # bilinear, refitted to the history residual from the equation-error fit
     r2 = min(k2b / k1b, 0.49)
