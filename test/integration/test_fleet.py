@@ -164,8 +164,10 @@ def test_failed_events_and_unreadable_bags_are_recorded_and_the_fleet_goes_on(
     (bags / "broken.mcap").write_bytes(b"not an mcap file")
     (bags / "pier_001").symlink_to(fleet_dir / "pier_001")
     out = tmp_path / "results"
-    # cuda on a machine without a GPU (the CI's): the training fails, a failure record results
-    rc = main(["fleet", str(bags), "--out", str(out), "--workers", "1", "--device", "cuda",
+    # a PINN on cuda, on a machine without a GPU (the CI's): the training fails, a failure
+    # record results
+    rc = main(["fleet", str(bags), "--out", str(out), "--workers", "1", "--method", "pinn",
+               "--device", "cuda",
                "--max-epochs", "5", "--no-figures", "--no-progress"])
     text = capsys.readouterr().out
     assert rc == 1
