@@ -19,8 +19,8 @@ from pier_monitor.core.model.config import PierConfig
 __all__ = ["StreamIngest", "StreamCounts"]
 
 #: Data a sensor must hold beyond an event's context before the event is ingested, s: the
-#: cleaning judges samples by the statistics of their whole UTC second and its neighbours.
-_EDGE_S = 2.0
+#: cleaning judges samples by the statistics of their whole UTC second.
+_EDGE_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -86,7 +86,7 @@ class StreamIngest:
     * the trigger has been off for ``merge_gap_s`` (the offline rule: any later shaking is
       another event), so an event is never declared cut while the foundation still
       delivers data;
-    * every sensor that sends has data up to ``context_s`` (and 2 s) beyond the event's
+    * every sensor that sends has data up to ``context_s`` (and 1 s) beyond the event's
       window, or lags the foundation by more than ``max_lag_s`` of data (it is then left to
       the ingest's checks: a sensor that fell silent does not hold the events back).
 
