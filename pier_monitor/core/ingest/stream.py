@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,7 +99,8 @@ class StreamIngest:
     event is finalised as :func:`ingest_recording` would finalise it at the end of a
     recording: ingested, *partial* (the data end after its strong motion) or cut.  An event
     that shakes for longer than the buffer can hold is finalised in the same way on the
-    buffered data before its beginning is lost, with a ``buffer_full`` finding that says so.
+    buffered data before its beginning is lost, with a ``buffer_full`` finding that says so
+    (the rest of that shaking is left out).
 
     Nothing received is dropped: samples stay in the buffer until they are older than
     ``buffer_s``, and :attr:`counts` accounts for every one of them (gaps and duplicates by
@@ -325,15 +327,24 @@ class StreamIngest:
         # as if the data ended where every sensor that sends has them
         data_end = min(latest for latest in self._latest_by_sensor.values()
                        if found_end - latest <= self._max_lag_ns)
-        out = self._ingest(lambda span, start_ns, end_ns:
-                           self._done_until_ns < start_ns <= until, data_end)
-        for outcome in self.report.outcomes[first:]:
-            self.report.add("buffer_full", outcome.event_id, f"the ground has been shaking "
-                            f"since {fmt_time(outcome.start_ns)}, longer than the "
-                            f"{self.buffer_s:g} s buffer holds: the event is finalised on the "
-                            f"buffered data as if they ended at {fmt_time(data_end)} "
-                            f"({outcome.status}); later shaking is another event",
-                            outcome.start_ns, max(outcome.start_ns, data_end))
+        self._ingest(lambda span, start_ns, end_ns: self._done_until_ns < start_ns <= until,
+                     data_end)
+        out = []
+        for k in range(first, len(self.report.outcomes)):
+            outcome = self.report.outcomes[k]
+            note = self.report.add(
+                "buffer_full", outcome.event_id, f"the ground has been shaking since "
+                f"{fmt_time(outcome.start_ns)}, longer than the {self.buffer_s:g} s buffer "
+                f"holds: the event is finalised on the buffered data as if they ended at "
+                f"{fmt_time(data_end)} ({outcome.status}); the rest of this shaking is left "
+                "out", outcome.start_ns, max(outcome.start_ns, data_end))
+            window = outcome.window
+            if window is not None:
+                window = dataclasses.replace(window, report={
+                    **window.report, "findings": [*window.report["findings"], note.as_dict()]})
+                out.append(window)
+            self.report.outcomes[k] = dataclasses.replace(
+                outcome, window=window, findings=(*outcome.findings, note))
         # the rest of this shaking is not this event again
         self._done_until_ns = max(self._done_until_ns, found_end)
         return out
