@@ -314,7 +314,8 @@ def _print_event(ev: EventOutcome) -> None:
         print(f"\nevent {r.event_id}: {ev.status.upper()}: {r.message}")
     else:
         w = ev.window
-        print(f"\nevent {r.event_id}: window {w.duration_s:.1f} s, trained {r.epochs} epochs "
+        part = " (PARTIAL: the data end during the shaking)" if r.partial else ""
+        print(f"\nevent {r.event_id}{part}: window {w.duration_s:.1f} s, trained {r.epochs} epochs "
               f"in {r.wall_time_s:.1f} s on {r.device}; overall state {r.overall_state.upper()}")
         print(f"{'section':>8} {'z (m)':>11} {'k1 (N·m/rad)':>13} {'k2 (N·m/rad)':>13} "
               f"{'fy (N·m)':>10} {'c (N·m·s/rad)':>14} {'DF':>7} {'state':>10} {'k1 change':>10}")
@@ -330,6 +331,8 @@ def _print_event(ev: EventOutcome) -> None:
         table = uncertainty_table(r)
         if table:
             print(table)
+    if r.partial:
+        print(f"partial: {r.partial}")
     findings = ev.ingest.findings if ev.ingest is not None else r.findings
     for line in ingest_summary(findings):
         print(line)

@@ -176,14 +176,17 @@ class IngestNode(Node):
         self._note_failed_events()
 
     def _note_failed_events(self) -> None:
-        """Log the events handed on without a window since the last call, and keep them for
-        the status."""
+        """Log the events handed on without a window (and the partial ones) since the last
+        call, and keep those without a window for the status."""
         outcomes = self._stream.report.outcomes
         for outcome in outcomes[self._outcomes_seen:]:
             if outcome.window is None:
                 self._failed.append(outcome)
                 self.get_logger().error(f"event {outcome.event_id}: {outcome.status}, no "
                                         f"window: {outcome.failure}")
+            elif outcome.partial is not None:
+                self.get_logger().warning(f"event {outcome.event_id}: partial window: "
+                                          f"{outcome.partial}")
         self._outcomes_seen = len(outcomes)
 
     def _window_file(self, window: MeasuredWindow) -> Path:

@@ -292,10 +292,11 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
     """
     check_window_matches(window, run)
     try:
-        findings = window.findings
+        findings, partial = window.findings, window.partial
     except InputDataError as err:
         raise ReportError(str(err)) from err
-    result = replace(run.result, findings=findings).with_check_reasons(check_reasons)
+    result = replace(run.result, findings=findings, partial=partial
+                     ).with_check_reasons(check_reasons)
     if baseline is None:
         result = result.with_k1_baseline(window.design.k1, "design values")
     elif isinstance(baseline, IdentificationResult):

@@ -294,7 +294,10 @@ class IdentificationResult:
     (:func:`~pier_monitor.core.identify.checks.check_identification`): when there are any,
     every section and the overall state are ``unreliable`` (:meth:`with_check_reasons`),
     whatever the ductility factors say.  ``findings`` are the ingest's findings about the
-    event's data (repairs, exclusions, failures; sensor and time in each).
+    event's data (repairs, exclusions, failures; sensor and time in each).  ``partial`` is
+    why the window is partial (the data end during the shaking, after its strong motion),
+    None for a complete event; result.json writes it as ``"partial": {"reason": ...}`` or
+    ``null``.
     """
 
     pier_id: str
@@ -317,6 +320,7 @@ class IdentificationResult:
     p_overall_state: tuple[float, float, float] | None = None
     unreliable_reasons: tuple[str, ...] = ()
     findings: tuple[Finding, ...] = ()
+    partial: str | None = None
 
     @property
     def reliable(self) -> bool:
@@ -399,6 +403,7 @@ class IdentificationResult:
             d["p_overall_state"] = list(self.p_overall_state)
         d["unreliable_reasons"] = list(self.unreliable_reasons)
         d["findings"] = [f.as_dict() for f in self.findings]
+        d["partial"] = None if self.partial is None else {"reason": self.partial}
         return d
 
     @classmethod
@@ -411,6 +416,7 @@ class IdentificationResult:
             d["p_overall_state"] = tuple(float(v) for v in d["p_overall_state"])
         d["unreliable_reasons"] = tuple(str(r) for r in d.get("unreliable_reasons", ()))
         d["findings"] = tuple(Finding.from_dict(f) for f in d.get("findings", ()))
+        d["partial"] = (d.get("partial") or {}).get("reason")
         return cls(**d)
 
     def save_json(self, path: str | Path) -> Path:
@@ -529,11 +535,11 @@ def failed_result(window: MeasuredWindow, *, device: str, message: str) -> Ident
     message : str
         What went wrong.
     """
-    return failed_event_result(
+    return replace(failed_event_result(
         window.geometry, pier_id=window.pier_id, event_id=window.event_id,
         start_ns=window.start_time_ns, duration_s=window.duration_s,
         window_start_s=float(window.t[0]), device=device, message=message,
-        findings=window.findings)
+        findings=window.findings), partial=window.partial)
 
 
 def failed_event_result(geometry: PierGeometry, *, pier_id: str, event_id: str, start_ns: int,

@@ -21,7 +21,8 @@ Steps, the same for a whole recording and for a stream:
    trigger (moving RMS over ``trigger_window_s`` above a threshold set from the
    accelerometers' configured noise and an absolute floor), merge triggers closer than
    ``merge_gap_s``, then take ``[1 %, 99 %]`` of the event's Arias intensity, padded.  An
-   event still shaking where the data end (or begin) is cut and gets no window.
+   event still shaking where the data end (or begin) is cut and gets no window, unless the
+   data end after its strong motion: its recorded part is then a *partial* window.
 6. **Relative motion and fusion** over the window plus context: relative accelerations
    (level minus foundation), wire displacements relative to their pre-event level (a wire
    that disagrees with its level's acceleration is excluded for the event), velocities
@@ -33,7 +34,8 @@ Steps, the same for a whole recording and for a stream:
 Each event has an outcome (:class:`EventIngest`): its window or the reason it has none; one
 event's failure never loses another.  Whole and stream give the same window because every
 step looks only at data near the samples it judges (local statistics per UTC second, the
-event's context), and the trigger is causal with a fixed threshold.
+event's context), the trigger is causal with a fixed threshold, and the stream hands an event
+on only once the offline rule sees it ended (or at the end of the stream).
 """
 
 from pier_monitor.core.ingest.clean import CleanSensor, clean_sensor

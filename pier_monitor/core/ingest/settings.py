@@ -97,6 +97,17 @@ class IngestSettings:
         the signal (and several times its noise) is excluded there: accelerometers against
         the other accelerometers, per second; displacement sensors against the level's
         acceleration integrated twice, per event.
+    partial_after_peak_s : float
+        When the data end while the ground still shakes (a truncated bag, a station that lost
+        power), the recorded part of the event becomes a *partial* window if it holds the
+        strong motion: its largest horizontal foundation acceleration lies at least this
+        long before the end of the data, s, and the shaking has decayed since (see
+        ``partial_decay``); otherwise the event is cut and has no window.
+    partial_decay : float
+        ... the foundation's RMS over the last ``partial_after_peak_s`` of data is at most
+        this share of its RMS over as long centred on that peak.  On a long plateau of
+        strong shaking the largest sample so far says nothing about the peak to come: the
+        RMS has not decayed, and the event stays cut.
     """
 
     output_rate_hz: float = 100.0
@@ -117,6 +128,8 @@ class IngestSettings:
     glitch_max_s: float = 1.0
     frozen_s: float = 0.25
     disagree_rel: float = 0.2
+    partial_after_peak_s: float = 5.0
+    partial_decay: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -193,9 +206,14 @@ class EventIngest:
     failure : str or None
         Why there is no window, naming the level, sensors, times and causes.
     status : str
-        ``ingested``, ``cut`` (the data begin or end during the event) or ``failed``.
+        ``ingested``; ``partial`` (the data end during the event, but after its strong
+        motion: a window of the recorded part, see ``partial``); ``cut`` (the data begin or
+        end during the event, no window) or ``failed``.
     findings : tuple of Finding
         The findings about the data of this event (its window and context).
+    partial : str or None
+        Why the event is partial (where the data end, where the peak lies); None for a
+        complete event.  The window's ``report["partial"]`` holds the same reason.
     """
 
     event_id: str
@@ -205,11 +223,14 @@ class EventIngest:
     failure: str | None = None
     status: str = "ingested"
     findings: tuple[Finding, ...] = ()
+    partial: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready form (without the window's arrays)."""
+        """JSON-ready form (without the window's arrays); ``partial`` is
+        ``{"reason": ...}`` or None."""
         return {"event_id": self.event_id, "status": self.status, "start_ns": self.start_ns,
                 "end_ns": self.end_ns, "failure": self.failure,
+                "partial": None if self.partial is None else {"reason": self.partial},
                 "findings": [f.as_dict() for f in self.findings]}
 
 

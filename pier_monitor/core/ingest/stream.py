@@ -2,21 +2,26 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.ingest.events import detect_events, trigger_threshold
+from pier_monitor.core.ingest.events import EventSpan, detect_events, trigger_threshold
 from pier_monitor.core.ingest.levels import level_motion_partial
 from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
-from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
+from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_time
 from pier_monitor.core.ingest.window import MeasuredWindow
-from pier_monitor.core.ingest.windows import ingest_recording
+from pier_monitor.core.ingest.windows import SpanFilter, ingest_recording, span_times
 from pier_monitor.core.model.config import PierConfig
 
 __all__ = ["StreamIngest", "StreamCounts"]
+
+#: Data a sensor must hold beyond an event's context before the event is ingested, s: the
+#: cleaning judges samples by the statistics of their whole UTC second.
+_EDGE_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -44,25 +49,64 @@ class StreamCounts:
     windows: int = 0
 
 
+class _Buffer:
+    """The samples of one sensor kept by a stream: the newest ``cap`` or a few more.
+
+    New blocks are appended to a list and joined into one array only when the samples are
+    read (:meth:`arrays`) or the buffer overflows, so a block costs O(its size).
+    """
+
+    def __init__(self, cap: int) -> None:
+        self.cap = cap
+        self._blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.size = 0
+
+    def append(self, time_ns: np.ndarray, data: np.ndarray, index: np.ndarray) -> None:
+        self._blocks.append((time_ns, data, index))
+        self.size += time_ns.size
+        if self.size > self.cap + max(self.cap // 8, 1):
+            t, d, i = self.arrays()
+            self._blocks = [(t[-self.cap:], d[-self.cap:], i[-self.cap:])]
+            self.size = self.cap
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(time_ns (T,), data (T, n_axes), sample_index (T,))`` in arrival order."""
+        if len(self._blocks) > 1:
+            self._blocks = [tuple(np.concatenate(parts) for parts in zip(*self._blocks))]
+        return self._blocks[0]
+
+
 class StreamIngest:
     """Incremental ingest: feed sample blocks as they arrive, get windows once events end.
 
-    A bounded ring buffer per sensor keeps ``buffer_s`` seconds.  Every ``poll_s`` of new
-    foundation data the causal trigger runs on the buffered foundation accelerometers; once
-    an event has ended (``merge_gap_s`` + ``context_s`` of data after its window), the
-    buffered samples are ingested exactly as :func:`ingest_recording` would and the window is
-    returned by :meth:`push`.  Sensors arrive on topics of their own and one may lag the
-    foundation (a slow link, a replay faster than real time): an event waits until every
-    sensor that sends has data up to the end of its window's context, or has lagged the
-    foundation by more than ``max_lag_s`` of data (it is then left to the ingest's checks:
-    a sensor that fell silent does not hold the events back).  Only data times count, never
-    the wall clock.  Nothing received is dropped: samples stay in the buffer until
-    they are older than ``buffer_s``, and :attr:`counts` accounts for every one of them
-    (gaps and duplicates by sample index).
+    A bounded buffer per sensor keeps at least ``buffer_s`` seconds.  Every ``poll_s`` of
+    new foundation data the causal trigger runs on the buffered foundation accelerometers
+    (from a little before the earliest event not yet handed on).  An event is handed on
+    once it has ended as :func:`ingest_recording` sees an ended event, and its data are in:
 
-    :attr:`report` gathers every finding once, and in ``report.outcomes`` the outcome of
-    every event handed on: with its window, or failed (the reason names the level, sensors,
-    time and cause) or cut by the end of the stream.
+    * the trigger has been off for ``merge_gap_s`` (the offline rule: any later shaking is
+      another event), so an event is never declared cut while the foundation still
+      delivers data;
+    * every sensor that sends has data up to ``context_s`` (and 1 s) beyond the event's
+      window, or lags the foundation by more than ``max_lag_s`` of data (it is then left to
+      the ingest's checks: a sensor that fell silent does not hold the events back).
+
+    The buffered samples are then ingested exactly as :func:`ingest_recording` would ingest
+    the whole recording (the windows' ``t`` counts from the stream's first sample), and
+    the window is returned by :meth:`push`.  Only data times count, never the wall clock.
+
+    At the end of the stream (:meth:`flush`, which the node calls at shutdown) every pending
+    event is finalised as :func:`ingest_recording` would finalise it at the end of a
+    recording: ingested, *partial* (the data end after its strong motion) or cut.  An event
+    that shakes for longer than the buffer can hold is finalised in the same way on the
+    buffered data before its beginning is lost, with a ``buffer_full`` finding that says so
+    (the rest of that shaking is left out).
+
+    Nothing received is dropped: samples stay in the buffer until they are older than
+    ``buffer_s``, and :attr:`counts` accounts for every one of them (gaps and duplicates by
+    sample index).  :attr:`report` gathers every finding once, and in ``report.outcomes``
+    the outcome of every event handed on: with its window (``partial`` or not), or failed
+    (the reason names the level, sensors, time and cause) or cut by the stream's edge.
 
     The configuration history lives here too: :meth:`update_config` adds an update (e.g.
     deck mass added before a run) and :meth:`config_at` answers which configuration held at
@@ -75,8 +119,7 @@ class StreamIngest:
         self.settings = settings or IngestSettings()
         self.buffer_s = buffer_s
         self.rate = config.sample_rate_hz
-        self._cap = int(buffer_s * self.rate) + 1
-        self._buf: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+        self._buf: dict[str, _Buffer] = {}
         self._next_index: dict[str, int] = {}
         self._first_ns: dict[str, int] = {}  # time of sample index 0 of sensors without indices
         self._mapped = {sp.sensor_id for sp in config.sensors}
@@ -86,7 +129,9 @@ class StreamIngest:
         self._max_lag_ns = int(max_lag_s * NS_PER_S)
         self._latest_by_sensor: dict[str, int] = {}
         self._last_poll_ns: int | None = None
-        self._done_until_ns = -1
+        self._done_until_ns = -1  # events starting at or before this are handed on
+        self._scan_from_ns: int | None = None  # the trigger needs no data before this
+        self._origin_ns: int | None = None
         self._history = Recording(config, {}, source="stream")
         self._latest_ns: int | None = None
         self.counts = StreamCounts()
@@ -161,8 +206,10 @@ class StreamIngest:
             sample_index = np.rint((time_ns - first) * (rate / NS_PER_S)).astype(np.int64)
         sample_index = np.asarray(sample_index, dtype=np.int64).reshape(-1)
         self._account(sensor_id, time_ns, sample_index)
-        self._buf.setdefault(sensor_id, []).append((time_ns, data, sample_index))
-        self._trim(sensor_id)
+        if sensor_id not in self._buf:
+            rate = self.config.sensor_rate_hz(self.config.sensor(sensor_id))
+            self._buf[sensor_id] = _Buffer(int(self.buffer_s * rate) + 1)
+        self._buf[sensor_id].append(time_ns, data, sample_index)
         if sensor_id not in self._foundation or not time_ns.size:
             return []
         now = int(time_ns.max())
@@ -172,14 +219,21 @@ class StreamIngest:
         return self._emit(self._poll())
 
     def flush(self) -> list[MeasuredWindow]:
-        """End of the stream: windows of events whose data ended with the stream."""
-        return self._emit(self._poll(final=True))
+        """End of the stream: every pending event is finalised as at the end of a recording
+        (ingested, partial or cut); returns the windows."""
+        if not any(self._buf[sid].size for sid in self._foundation & set(self._buf)):
+            return []  # no ground motion at all: nothing to finalise
+        return self._emit(self._ingest(lambda span, start_ns, end_ns:
+                                       start_ns > self._done_until_ns))
 
     def _account(self, sensor_id: str, time_ns: np.ndarray, index: np.ndarray) -> None:
         c = self.counts
         gaps, dups, n = c.gap_samples, c.duplicate_samples, int(time_ns.size)
         if n:
             last = int(time_ns.max())
+            first_t = int(time_ns.min())
+            self._origin_ns = first_t if self._origin_ns is None else min(self._origin_ns,
+                                                                          first_t)
             self._latest_ns = last if self._latest_ns is None else max(self._latest_ns, last)
             self._latest_by_sensor[sensor_id] = max(self._latest_by_sensor.get(sensor_id, last),
                                                     last)
@@ -200,66 +254,114 @@ class StreamIngest:
                                        c.windows + len(windows))
         return windows
 
-    def _trim(self, sensor_id: str) -> None:
-        blocks = self._buf[sensor_id]
-        total = sum(b[0].size for b in blocks)
-        while blocks and total - blocks[0][0].size >= self._cap:
-            total -= blocks.pop(0)[0].size
-
-    def _recording(self, only: set[str] | None = None) -> Recording:
+    def _recording(self, only: set[str] | None = None, from_ns: int | None = None,
+                   until_ns: int | None = None) -> Recording:
+        """The buffered samples (of ``only``, from ``from_ns`` on, up to ``until_ns``) as a
+        recording."""
         sensors = {}
-        for sid, blocks in self._buf.items():
-            if not blocks or (only is not None and sid not in only):
+        for sid, buf in self._buf.items():
+            if not buf.size or (only is not None and sid not in only):
                 continue
-            sensors[sid] = SensorRecord(sid, np.concatenate([b[0] for b in blocks]),
-                                        np.concatenate([b[1] for b in blocks]),
-                                        self.config.sensor_rate_hz(self.config.sensor(sid)),
-                                        np.concatenate([b[2] for b in blocks]))
+            t, d, i = buf.arrays()
+            if from_ns is not None or until_ns is not None:
+                keep = np.ones(t.shape, dtype=bool)
+                if from_ns is not None:
+                    keep &= t >= from_ns
+                if until_ns is not None:
+                    keep &= t <= until_ns
+                t, d, i = t[keep], d[keep], i[keep]
+                if not t.size:
+                    continue
+            sensors[sid] = SensorRecord(sid, t, d,
+                                        self.config.sensor_rate_hz(self.config.sensor(sid)), i)
         return Recording(self.config, sensors, source="stream",
                          config_updates=self._history.config_updates)
 
-    def _poll(self, final: bool = False) -> list[MeasuredWindow]:
+    def _ended(self, span: EventSpan, end_ns: int, found_end_ns: int) -> bool:
+        """The event has ended as the offline rule sees it (the trigger off for
+        ``merge_gap_s``: ``span.cut_end`` false) and every sensor that sends has data
+        ``context_s`` (and :data:`_EDGE_S`) beyond its window, or lags by more than
+        ``max_lag_s``."""
+        if span.cut_end:
+            return False
+        need = end_ns + int((self.settings.context_s + _EDGE_S) * NS_PER_S)
+        return found_end_ns >= need and all(
+            latest >= need or found_end_ns - latest > self._max_lag_ns
+            for latest in self._latest_by_sensor.values())
+
+    def _poll(self) -> list[MeasuredWindow]:
+        """Run the trigger on the buffered foundation data; ingest the events that ended,
+        and those about to outgrow the buffer."""
         s = self.settings
-        found = self._recording(self._foundation)
+        found = self._recording(self._foundation, self._scan_from_ns)
         if not found.sensors:
             return []
-        quiet_ns = int((s.merge_gap_s + s.context_s) * NS_PER_S)
         scratch = IngestReport()
         cleaned, t0, n, rate = clean_recording(found, s, scratch)
         ag_xy = level_motion_partial(cleaned, "acceleration", 0, slice(0, n))
         if ag_xy is None:
             return []
-        spans = detect_events(ag_xy, rate, trigger_threshold(self.config, s), s)
-        end_ns = found.end_ns
+        spans = [span_times(sp, t0, rate)
+                 for sp in detect_events(ag_xy, rate, trigger_threshold(self.config, s), s)]
+        pending = [(sp, a, b) for sp, a, b in spans if a > self._done_until_ns]
+        found_end = found.end_ns
+        margin_ns = int((s.trigger_window_s + s.merge_gap_s + s.pad_s + 2.0) * NS_PER_S)
+        # the trigger of the next poll needs data from before every pending event (and any
+        # shaking of the last merge_gap_s that may still grow into one), never much more
+        scan_from = min([a for _, a, _ in pending] + [found_end]) - margin_ns
+        scan_from -= scan_from % NS_PER_S  # whole UTC seconds, as the cleaning judges them
+        if self._scan_from_ns is None or scan_from > self._scan_from_ns:
+            self._scan_from_ns = scan_from
+        if any(self._ended(sp, b, found_end) for sp, _, b in pending):
+            return self._ingest(lambda span, start_ns, end_ns: start_ns > self._done_until_ns
+                                and self._ended(span, end_ns, found_end))
+        # an event whose beginning (and its context) would leave the buffer before the next
+        # poll is finalised now, on what the buffer holds, as if the data ended here
+        lost_ns = found_end + 2 * self._poll_ns - int(self.buffer_s * NS_PER_S)
         context_ns = int(s.context_s * NS_PER_S)
-
-        def complete(event_end_ns: int) -> bool:
-            """The foundation has been quiet long enough after the event, and every sensor
-            has caught up with its context or lags by more than max_lag_s."""
-            if final:
-                return True
-            return end_ns - event_end_ns >= quiet_ns and all(
-                latest >= event_end_ns + context_ns or end_ns - latest > self._max_lag_ns
-                for latest in self._latest_by_sensor.values())
-
-        ready = [sp for sp in spans
-                 if t0 + int(sp.start * NS_PER_S / rate) > self._done_until_ns
-                 and complete(t0 + int(sp.end * NS_PER_S / rate))]
-        if not ready:
+        overflowing = [a for _, a, _ in pending if a - context_ns < lost_ns]
+        if not overflowing:
             return []
-        _, report = ingest_recording(self._recording(), s)
+        until = max(overflowing) + NS_PER_S
+        first = len(self.report.outcomes)
+        # as if the data ended where every sensor that sends has them
+        data_end = min(latest for latest in self._latest_by_sensor.values()
+                       if found_end - latest <= self._max_lag_ns)
+        self._ingest(lambda span, start_ns, end_ns: self._done_until_ns < start_ns <= until,
+                     data_end)
+        out = []
+        for k in range(first, len(self.report.outcomes)):
+            outcome = self.report.outcomes[k]
+            note = self.report.add(
+                "buffer_full", outcome.event_id, f"the ground has been shaking since "
+                f"{fmt_time(outcome.start_ns)}, longer than the {self.buffer_s:g} s buffer "
+                f"holds: the event is finalised on the buffered data as if they ended at "
+                f"{fmt_time(data_end)} ({outcome.status}); the rest of this shaking is left "
+                "out", outcome.start_ns, max(outcome.start_ns, data_end))
+            window = outcome.window
+            if window is not None:
+                window = dataclasses.replace(window, report={
+                    **window.report, "findings": [*window.report["findings"], note.as_dict()]})
+                out.append(window)
+            self.report.outcomes[k] = dataclasses.replace(
+                outcome, window=window, findings=(*outcome.findings, note))
+        # the rest of this shaking is not this event again
+        self._done_until_ns = max(self._done_until_ns, found_end)
+        return out
+
+    def _ingest(self, select: SpanFilter, until_ns: int | None = None) -> list[MeasuredWindow]:
+        """Ingest the buffer (up to ``until_ns``), hand on the outcomes of the events
+        ``select`` picks."""
+        _, report = ingest_recording(self._recording(until_ns=until_ns), self.settings,
+                                     origin_ns=self._origin_ns, select=select)
         # each ingest reports on the whole buffer: keep every finding once
         seen = set(self.report.findings)
         self.report.findings.extend(f for f in report.findings if f not in seen)
         self.report.checks.update(report.checks)
         out = []
         for outcome in report.outcomes:
-            if outcome.start_ns <= self._done_until_ns:
-                continue
-            if not complete(outcome.end_ns):
-                continue
             self.report.outcomes.append(outcome)
-            self._done_until_ns = outcome.start_ns
+            self._done_until_ns = max(self._done_until_ns, outcome.start_ns)
             if outcome.window is not None:
                 out.append(outcome.window)
         return out

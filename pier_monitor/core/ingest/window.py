@@ -342,6 +342,24 @@ class MeasuredWindow:
             raise InputDataError(f"window {self.event_id!r}: report['findings'] is not a list "
                                  f"of findings ({type(err).__name__}: {err})") from err
 
+    @property
+    def partial(self) -> str | None:
+        """Why the window is partial (the data end during the event, after its strong
+        motion: ``report["partial"]["reason"]``); None for a complete event.
+
+        Raises
+        ------
+        InputDataError
+            If ``report["partial"]`` is neither None nor ``{"reason": <text>}``.
+        """
+        mark = self.report.get("partial")
+        if mark is None:
+            return None
+        if not (isinstance(mark, dict) and isinstance(mark.get("reason"), str)):
+            raise InputDataError(f"window {self.event_id!r}: report['partial'] must be null or "
+                                 f"{{'reason': <text>}}, got {mark!r}")
+        return mark["reason"]
+
     def __eq__(self, other: object) -> bool:
         """Every field equal (arrays exactly, NaN equal to NaN)."""
         if not isinstance(other, MeasuredWindow):

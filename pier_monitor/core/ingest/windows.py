@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy import signal
@@ -29,7 +30,11 @@ from pier_monitor.core.ingest.settings import (EventIngest, IngestError, IngestR
 from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
 from pier_monitor.core.numerics import cumulative_trapezoid
 
-__all__ = ["ingest_recording"]
+__all__ = ["ingest_recording", "span_times", "SpanFilter"]
+
+#: ``select(span, start_ns, end_ns)``: whether to ingest a detected event now (``start_ns``,
+#: ``end_ns``: its window's first and last sample, ns since the Unix epoch).
+SpanFilter = Callable[[EventSpan, int, int], bool]
 
 
 def _decimate(x: np.ndarray, factor: int) -> np.ndarray:
@@ -40,7 +45,7 @@ def _decimate(x: np.ndarray, factor: int) -> np.ndarray:
 
 def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int, rate: float,
                       w0: int, w1: int, direction: float, settings: IngestSettings,
-                      report: IngestReport, event_id: str) -> MeasuredWindow:
+                      report: IngestReport, event_id: str, origin_ns: int) -> MeasuredWindow:
     # geometry and design in force for this event (e.g. deck mass added before a run)
     config = recording.config_at(t0 + int(round(w0 * NS_PER_S / rate)))
     n_lv = config.n_levels
@@ -141,7 +146,7 @@ def _window_from_span(recording: Recording, cleaned: list[CleanSensor], t0: int,
            for name, arr in (("a", a_rel), ("ag", ag), ("x", x_out), ("v", v_rel))}
     m = min(arr.shape[0] for arr in dec.values())
     start_ns = t0 + int(round((c0 + k0 * factor) * NS_PER_S / rate))
-    t = (start_ns - t0) / NS_PER_S + np.arange(m) / settings.output_rate_hz
+    t = (start_ns - origin_ns) / NS_PER_S + np.arange(m) / settings.output_rate_hz
     return MeasuredWindow(
         pier_id=config.pier_id, event_id=event_id, geometry=config.geometry,
         design=config.design, t=t, ag=dec["ag"][:m], a=dec["a"][:m], v=dec["v"][:m],
@@ -209,9 +214,37 @@ def _explain(err: Exception, recording: Recording, report: IngestReport, start_n
     return f"{err} during {fmt_span(start_ns, end_ns)}{detail}"
 
 
+def _strong_motion_recorded(ag_xy: np.ndarray, rate: float, span: EventSpan,
+                            settings: IngestSettings) -> tuple[int, int, float]:
+    """For an event the data end in: ``(i_peak, i_last, decay)``, the sample of the largest
+    horizontal foundation acceleration from the window's start on, the last sample with
+    data, and the foundation's RMS over the last ``partial_after_peak_s`` of data relative
+    to its RMS over as long centred on the peak (NaN when the data after the peak are
+    shorter than that)."""
+    seg = ag_xy[span.start:]
+    valid = np.flatnonzero(np.isfinite(seg).all(axis=1))
+    if valid.size == 0:
+        return span.start, span.start, math.nan
+    seg = seg - seg[valid].mean(axis=0)
+    mag = np.hypot(seg[:, 0], seg[:, 1]) if seg.shape[1] > 1 else np.abs(seg[:, 0])
+    k_peak = int(valid[np.argmax(mag[valid])])
+    k_last = int(valid[-1])
+    n_after = int(round(settings.partial_after_peak_s * rate))
+    if k_last - k_peak < n_after:
+        return span.start + k_peak, span.start + k_last, math.nan
+
+    def rms(lo: int, hi: int) -> float:
+        part = mag[max(lo, 0):hi]
+        return float(np.sqrt(np.nanmean(part ** 2)))
+
+    decay = rms(k_last + 1 - n_after, k_last + 1) / rms(k_peak - n_after // 2,
+                                                        k_peak + n_after - n_after // 2)
+    return span.start + k_peak, span.start + k_last, decay
+
+
 def _ingest_event(recording: Recording, cleaned: list[CleanSensor], t0: int, rate: float,
                   span: EventSpan, ag_xy: np.ndarray, settings: IngestSettings,
-                  report: IngestReport) -> EventIngest:
+                  report: IngestReport, origin_ns: int) -> EventIngest:
     """One event's outcome: its window, or why there is none."""
     config = recording.config
     n_all = ag_xy.shape[0]
@@ -223,11 +256,31 @@ def _ingest_event(recording: Recording, cleaned: list[CleanSensor], t0: int, rat
     event_id = make_event_id(config.pier_id, start_ns)
     ctx = int(round(settings.context_s * rate))
     c0_ns, c1_ns = to_ns(max(0, span.start - ctx)), to_ns(min(n_all, span.end + ctx) - 1)
-    if span.cut_start or span.cut_end:
+    partial = None
+    if span.cut_end and not span.cut_start:
+        i_peak, i_last, decay = _strong_motion_recorded(ag_xy, rate, span, settings)
+        after_s = (i_last - i_peak) / rate
+        peak = (f"the largest foundation acceleration ({fmt_time(to_ns(i_peak))}) lies "
+                f"{after_s:.1f} s before the end of the data")
+        if not after_s >= settings.partial_after_peak_s:
+            peak += f", less than the {settings.partial_after_peak_s:g} s a partial window needs"
+        else:
+            peak += (f" and the shaking of the last {settings.partial_after_peak_s:g} s has "
+                     f"{decay:.0%} of its RMS about that peak")
+            if decay <= settings.partial_decay:
+                partial = (f"the data end at {fmt_time(to_ns(i_last))} while the ground is "
+                           f"still shaking; {peak} (at most {settings.partial_decay:.0%} "
+                           "needed): the window holds the strong motion, the rest of the "
+                           "shaking is missing")
+            else:
+                peak += (f", more than the {settings.partial_decay:.0%} that shows the strong "
+                         "motion over")
+    if (span.cut_start or span.cut_end) and partial is None:
         edge = (f"end at {fmt_time(to_ns(n_all - 1))}" if span.cut_end
                 else f"begin at {fmt_time(t0)}")
+        why = "" if span.cut_start else f"; {peak}"
         reason = (f"event {event_id} is cut: the data {edge} while the ground is still "
-                  f"shaking ({fmt_span(start_ns, end_ns)} of it recorded); no window")
+                  f"shaking ({fmt_span(start_ns, end_ns)} of it recorded); no window{why}")
         report.add("event_cut", event_id, reason, start_ns, end_ns, "failed")
         return EventIngest(event_id, start_ns, end_ns, None, reason, "cut",
                            tuple(report.within(c0_ns, c1_ns)))
@@ -245,19 +298,27 @@ def _ingest_event(recording: Recording, cleaned: list[CleanSensor], t0: int, rat
             report.add("principal_direction", event_id, f"estimated from the foundation "
                        f"acceleration: {direction:.2f} deg", start_ns, end_ns)
         window = _window_from_span(recording, cleaned, t0, rate, span.start, span.end,
-                                   direction, settings, report, event_id)
+                                   direction, settings, report, event_id, origin_ns)
     except (IngestError, InputDataError) as err:
         reason = _explain(err, recording, report, c0_ns, c1_ns)
+        if partial is not None:
+            reason = f"{reason}; partial event: {partial}"
         report.add("event_failed", event_id, reason, start_ns, end_ns, "failed")
         return EventIngest(event_id, start_ns, end_ns, None, reason, "failed",
-                           tuple(report.within(c0_ns, c1_ns)))
+                           tuple(report.within(c0_ns, c1_ns)), partial)
+    extra: dict = {}
+    if partial is not None:
+        report.add("event_partial", event_id, partial, start_ns, end_ns, "noted")
+        extra["partial"] = {"reason": partial}
     findings = tuple(report.within(c0_ns, c1_ns))
-    window = dataclasses.replace(window, report={**window.report,
+    window = dataclasses.replace(window, report={**window.report, **extra,
                                                  "findings": [f.as_dict() for f in findings]})
-    return EventIngest(event_id, start_ns, end_ns, window, None, "ingested", findings)
+    return EventIngest(event_id, start_ns, end_ns, window, None,
+                       "ingested" if partial is None else "partial", findings, partial)
 
 
-def ingest_recording(recording: Recording, settings: IngestSettings | None = None
+def ingest_recording(recording: Recording, settings: IngestSettings | None = None, *,
+                     origin_ns: int | None = None, select: SpanFilter | None = None
                      ) -> tuple[list[MeasuredWindow], IngestReport]:
     """All mainshock windows of a recording, and the report of what was done.
 
@@ -266,6 +327,24 @@ def ingest_recording(recording: Recording, settings: IngestSettings | None = Non
     has none (a level without usable sensors, data cut by the end of the recording, ...);
     one event's failure never loses another's window.  Each window's ``report["findings"]``
     lists the findings about its data.
+
+    An event the data end in while the ground still shakes is *partial* when the recorded
+    part holds the strong motion: the largest foundation acceleration and at least
+    ``settings.partial_after_peak_s`` after it.  Its window covers what was recorded; the
+    window's ``report["partial"]`` is ``{"reason": ...}`` and its outcome has status
+    ``partial`` with the same reason.  Otherwise the event is ``cut`` and has no window.
+
+    Parameters
+    ----------
+    recording : Recording
+    settings : IngestSettings, optional
+    origin_ns : int, optional
+        Time of ``t = 0`` of the windows' ``t``, ns since the Unix epoch; default the
+        recording's first sample.  A stream passes the time of its first sample, so that its
+        windows do not depend on how much of the stream its buffer still holds.
+    select : callable, optional
+        ``select(span, start_ns, end_ns)``: ingest only the detected events for which it is
+        true (a stream: those that have ended); the others get no outcome.  Default: all.
 
     Raises
     ------
@@ -287,10 +366,21 @@ def ingest_recording(recording: Recording, settings: IngestSettings | None = Non
     # trigger on both horizontal components: the direction may still be unknown
     spans = detect_events(ag_xy, rate, threshold, settings)
     report.checks["trigger_threshold_mps2"] = threshold
+    origin = t0 if origin_ns is None else int(origin_ns)
     for span in spans:
+        if select is not None and not select(*span_times(span, t0, rate)):
+            continue
         report.outcomes.append(_ingest_event(recording, cleaned, t0, rate, span, ag_xy,
-                                             settings, report))
+                                             settings, report, origin))
     if not spans:
         report.add("no_event", config.pier_id, f"no mainshock: the foundation RMS never exceeded "
                    f"{threshold:.3g} m/s²", t0, t0 + int(round((n - 1) * NS_PER_S / rate)))
     return [o.window for o in report.outcomes if o.window is not None], report
+
+
+def span_times(span: EventSpan, t0_ns: int, rate_hz: float) -> tuple[EventSpan, int, int]:
+    """``(span, start_ns, end_ns)``: a detected event with its window's first and last
+    sample in ns since the Unix epoch (``t0_ns``: time of sample 0), as the ingest names
+    them."""
+    return (span, t0_ns + int(span.start * NS_PER_S / rate_hz),
+            t0_ns + int(round((span.end - 1) * NS_PER_S / rate_hz)))
