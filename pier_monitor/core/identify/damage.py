@@ -322,6 +322,16 @@ class IdentificationResult:
     findings: tuple[Finding, ...] = ()
     partial: str | None = None
 
+    def __eq__(self, other: object) -> bool:
+        """Field by field, a NaN equal to a NaN (a method that does not train has no loss;
+        an unyielded spring has no ``k2``): a result equals its own saved copy."""
+        if not isinstance(other, IdentificationResult):
+            return NotImplemented
+        return (json.dumps(self.to_dict(), sort_keys=True, default=str)
+                == json.dumps(other.to_dict(), sort_keys=True, default=str))
+
+    __hash__ = None  # mutable-looking contents (dicts, arrays): not hashable
+
     @property
     def reliable(self) -> bool:
         """An identification that ran and passed its self-check (its states are diagnoses)."""
