@@ -88,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
             n_msgs = n_samples = n_blocks = 0
             t0_log = max(msgs[0][1], start_ns)
             t0_wall = time.monotonic()
+            # the data time of the start and the wall clock it is sent at, for latency figures
+            print(f"CLOCK log_ns={t0_log} unix_s={time.time():.6f}", flush=True)
             for conn, log_ns, raw in msgs:
                 if config_first and (conn, log_ns) == (config_first[0][0], config_first[0][1]):
                     n_msgs += 1
