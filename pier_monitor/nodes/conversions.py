@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -278,7 +279,8 @@ def progress_msg(event_id: str, progress: Progress, stamp_ns: int) -> Identifica
     return msg
 
 
-def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray:
+def damage_diagnostics(fields: dict[str, Any], stamp_ns: int, *,
+                       k1_vs_design_pct: Sequence[float | None] = ()) -> DiagnosticArray:
     """``/diagnostics`` of a damage state (:func:`pier_monitor.report.diagnostics.
     diagnostics_fields`): one status per section, then the identifier's.
 
@@ -288,8 +290,11 @@ def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray
         :func:`pier_monitor.report.results.damage_state_fields` of the result.
     stamp_ns : int
         ``header.stamp``, ns since the Unix epoch.
+    k1_vs_design_pct : sequence of float or None
+        Per section, the difference of ``k1`` from the design values, %
+        (:func:`pier_monitor.report.results.k1_vs_design`).
     """
-    diag = diagnostics_fields(fields, stamp_ns)
+    diag = diagnostics_fields(fields, stamp_ns, k1_vs_design_pct=k1_vs_design_pct)
     for st in diag["status"]:
         st["level"] = bytes([st["level"]])  # rclpy's byte fields take one-byte bytes
     return fill_message(DiagnosticArray(), diag)

@@ -50,7 +50,7 @@ from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import TrainingStopped, identify_window
 from pier_monitor.fleet import EventTask, RayBackend, identify_event
 from pier_monitor.pinn import PinnSettings, Progress, resolve_device
-from pier_monitor.report.results import damage_state_fields
+from pier_monitor.report.results import damage_state_fields, k1_vs_design
 from pier_monitor.report.store import ResultsStore
 
 from ._params import declare
@@ -211,7 +211,8 @@ class IdentifierNode(Node):
         fields = damage_state_fields(result, stamp_ns=self._now_ns())
         self._state_pub.publish(damage_state_msg(fields))
         self._markers_pub.publish(damage_markers_msg(fields))
-        self._diagnostics = damage_diagnostics(fields, self._now_ns())
+        self._diagnostics = damage_diagnostics(fields, self._now_ns(),
+                                               k1_vs_design_pct=k1_vs_design(result))
         self._diag_pub.publish(self._diagnostics)
 
     def _identify_on_ray(self, window: MeasuredWindow, settings: PinnSettings

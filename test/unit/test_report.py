@@ -83,13 +83,15 @@ def test_result_json_round_trips_into_identification_result(identified, written)
     window, run = identified
     paths = written.paths
     loaded = IdentificationResult.load_json(paths.result_json)
-    expected = replace(run.result.with_k1_baseline(window.design.k1, "design values"),
+    expected = replace(run.result.without_k1_baseline().with_design_k1(window.design.k1),
                        window_start_ns=START_NS, software_version=__version__)
     assert loaded == expected == written.result  # what write_results returns is what it saved
     assert loaded.to_dict() == json.loads(paths.result_json.read_text())
     assert loaded.settings == run.result.settings and loaded.history == run.result.history
-    # the paper case starts from half the true k1: the change against design is about +100 %
-    assert all(abs(s.k1_change_pct - 100.0) < 1.0 for s in loaded.sections)
+    # the paper case's design values are half the true k1: k1 is about +100 % against them,
+    # which is no change (a first event has none) and has its own key
+    assert all(abs(s.k1_vs_design_pct - 100.0) < 1.0 for s in loaded.sections)
+    assert all(s.k1_change_pct is None for s in loaded.sections) and loaded.k1_baseline == ""
     assert load_result(paths.out_dir) == loaded
 
 
@@ -127,7 +129,7 @@ def test_damage_state_mcap_decodes_with_mcap_ros2(identified, written) -> None:
         assert (got.z_bottom_m, got.z_top_m) == (want.z_bottom_m, want.z_top_m)
         assert (got.k1, got.k2, got.fy, got.c) == (want.k1, want.k2, want.fy, want.c)
         assert got.ductility_factor == want.ductility_factor
-        assert got.k1_change_pct == want.k1_change_pct
+        assert math.isnan(got.k1_change_pct) and want.k1_change_pct is None  # first event
         assert got.state == int(want.damage_state)
         assert got.k2_identifiable == want.k2_identifiable == want.yielded
     assert [s.state for s in decoded.sections][:2] == [2, 2]
@@ -182,8 +184,8 @@ def test_compare_gives_sign_and_ranking_of_k1_changes() -> None:
     assert lines[2] == ("section 2 (2.0-4.0 m): k1 -5.0 %, DF 1.10 -> 1.25, "
                         "intact -> suspicious (worse)")
     # springs that did not yield: DF only bounded
-    assert lines[3] == "section 3 (4.0-6.0 m): k1 +2.5 %, DF <=0.90 -> <=0.95, intact -> intact"
-    assert lines[-1].startswith("<=: the spring did not yield")
+    assert lines[3] == "section 3 (4.0-6.0 m): k1 +2.5 %, DF ≤ 0.90 -> ≤ 0.95, intact -> intact"
+    assert lines[-1].startswith("≤: the spring did not yield")
     assert "k1 A (GN*m/rad)" in cmp.table()
 
 
@@ -375,8 +377,10 @@ def test_ensemble_result_json_round_trips_its_uncertainty(ensemble_written) -> N
     _, written = ensemble_written
     result = written.result
     assert result.members == ENSEMBLE_MEMBERS and sum(result.p_overall_state) == pytest.approx(1)
-    assert all(s.uncertainty is not None and s.k1_change_lo_pct < s.k1_change_pct
-               < s.k1_change_hi_pct for s in result.sections)
+    # a first event: no change and no change interval, its difference from design apart
+    assert all(s.uncertainty is not None and s.k1_change_pct is None
+               and s.k1_change_lo_pct is None and s.k1_vs_design_pct is not None
+               for s in result.sections)
     loaded = load_result(written.paths.out_dir)
     assert json.dumps(loaded.to_dict(), sort_keys=True) == json.dumps(result.to_dict(),
                                                                       sort_keys=True)
@@ -408,8 +412,8 @@ def test_ensemble_damage_state_decodes_from_the_mcap_with_only_the_msg_text(
                        for key in ("mean", "std", "lo", "hi")), name
         assert got.p_yielded == u.p_yielded
         assert (got.p_intact, got.p_suspicious, got.p_damaged) == u.p_state
-        assert (got.k1_change_lo_pct, got.k1_change_hi_pct, got.k1_change_scatter_pct) == (
-            want.k1_change_lo_pct, want.k1_change_hi_pct, want.k1_change_scatter_pct)
+        assert all(math.isnan(v) for v in (got.k1_change_lo_pct, got.k1_change_hi_pct,
+                                           got.k1_change_scatter_pct))  # no earlier event
         assert list(got.reasons) == list(want.reasons)
         assert got.state == int(want.damage_state)
 
@@ -475,7 +479,7 @@ def test_cli_compare_prints_k1_change_intervals_and_cracking(tmp_path: Path, cap
     s1, s2 = cmp.sections
     assert "90 % interval" in out
     assert (f"section 1 (0.0-2.0 m): k1 -14.0 % [{s1.k1_change_lo_pct:+.1f}, "
-            f"{s1.k1_change_hi_pct:+.1f}], DF <=0.80 -> <=0.80, intact -> suspicious (worse): "
+            f"{s1.k1_change_hi_pct:+.1f}], DF ≤ 0.80 -> ≤ 0.80, intact -> suspicious (worse): "
             f"k1 -14.0 % [{s1.k1_change_lo_pct:+.1f}, {s1.k1_change_hi_pct:+.1f}] against event "
             f"run1, beyond the identification scatter ({s1.k1_change_scatter_pct:.1f} %): "
             "cracking") in out
