@@ -521,3 +521,45 @@ def test_identify_tables_print_intervals_and_state_probabilities(tmp_path: Path,
         for reason in s.reasons:
             assert f"section {s.index + 1}: {s.state}: {reason}" in out
     assert any(s.reasons for s in result.sections)
+
+
+def test_diagnostics_of_a_first_event_show_design_apart_and_an_unyielded_df_as_a_bound() -> None:
+    from pier_monitor.report.diagnostics import diagnostics_fields
+    from pier_monitor.report.results import k1_vs_design
+
+    # section 1 yielded (DF 1.3), section 2 did not (DF bound 1); design k1 1.66e9: k1 of
+    # 1e9 is -39.8 % against it, which is no change and no basis of the level
+    first = _result("p1", "run1", [1e9, 1e9], [1.3, 1.0]).with_design_k1(np.array([1.66e9] * 2))
+    assert [s.k1_vs_design_pct for s in first.sections] == pytest.approx([-39.759] * 2, abs=1e-3)
+    diag = diagnostics_fields(damage_state_fields(first), START_NS,
+                              k1_vs_design_pct=k1_vs_design(first))
+    s1, s2, _ = diag["status"]
+    v1 = {kv["key"]: kv["value"] for kv in s1["values"]}
+    v2 = {kv["key"]: kv["value"] for kv in s2["values"]}
+    assert (v1["ductility_factor"], v1["ductility_factor_upper_bound"]) == ("1.3", "false")
+    assert (v2["ductility_factor"], v2["ductility_factor_upper_bound"]) == ("≤ 1", "true")
+    assert v1["k1_change_pct"] == v2["k1_change_pct"] == "n/a"
+    assert v2["k1_vs_design_pct"] == "-39.759"
+    assert (s1["level"], s2["level"]) == (1, 0)  # suspicious by its DF, intact: not by design
+    assert s2["message"] == ("intact: DF ≤ 1, no k1 change (no earlier event), k1 vs design "
+                             "-39.8 % (event run1)")
+    # a later event: the change against the first one, the design values still apart
+    second = _result("p1", "run2", [0.9e9, 1e9], [1.3, 1.0]).with_design_k1(
+        np.array([1.66e9] * 2)).with_baseline(first)
+    diag = diagnostics_fields(damage_state_fields(second), START_NS,
+                              k1_vs_design_pct=k1_vs_design(second))
+    v1 = {kv["key"]: kv["value"] for kv in diag["status"][0]["values"]}
+    assert v1["k1_change_pct"] == "-10" and v1["k1_vs_design_pct"] == "-45.7831"
+    assert "k1 change -10 %" in diag["status"][0]["message"]
+
+
+def test_uncertainty_table_marks_the_df_bound_and_a_first_event_has_no_change() -> None:
+    k1 = normal_members(1e9, 0.01e9)
+    df = normal_members(0.8, 0.03)
+    no = np.zeros_like(df, dtype=bool)
+    first = ensemble_result("run1", [k1], [df], [no]).with_design_k1(np.array([1.25e9]))
+    from pier_monitor.report.tables import uncertainty_table
+
+    row = uncertainty_table(first).splitlines()[3]
+    assert "≤ 0.80 [" in row  # the members' DF of a spring that did not yield: a bound
+    assert row.split()[-2:] == ["-", "-20.0"]  # no k1 change; -20 % against design
