@@ -1,0 +1,84 @@
+"""``config/nodes.yaml`` lists every parameter the nodes declare, at its default, with its range.
+
+The nodes are created in this process (real rclpy, no graph traffic needed) without a
+parameters file, so that what they hold is their defaults; each is compared with the file.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from ros_helpers import REPO_ROOT
+
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
+
+NODES_YAML = REPO_ROOT / "config" / "nodes.yaml"
+
+
+def _comments(section: str) -> dict[str, str]:
+    """The comment of each parameter line of ``section`` (``/**/ingest``) of nodes.yaml."""
+    out: dict[str, str] = {}
+    current = None
+    for line in NODES_YAML.read_text(encoding="utf-8").splitlines():
+        if line and not line.startswith((" ", "#")):
+            current = line.rstrip(":")
+            continue
+        m = re.match(r"^ {4}(\w+):[^#]*(?:#(.*))?$", line)
+        if current == section and m:
+            out[m.group(1)] = (m.group(2) or "").strip()
+    return out
+
+
+def _declared(node: Any, rclpy_defaults: set[str]) -> dict[str, tuple[Any, Any]]:
+    """``name -> (value, descriptor)`` of what the node declared itself."""
+    names = [n for n in node._parameters if n not in rclpy_defaults]
+    # get_parameter refuses an unset, statically typed parameter (an empty string array)
+    return {n: (node._parameters[n].value, node.describe_parameter(n)) for n in names}
+
+
+def _num(value: float) -> str:
+    return str(value) if isinstance(value, int) else f"{value:g}"
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, (list, tuple)) or type(value).__name__ == "array":
+        return [v for v in value if v != ""]  # a params file cannot hold [], it holds [""]
+    return value
+
+
+@pytest.mark.parametrize("section, module, cls", [
+    ("/**/ingest", "pier_monitor.nodes.ingest_node", "IngestNode"),
+    ("/**/identifier", "pier_monitor.nodes.identifier_node", "IdentifierNode"),
+])
+def test_nodes_yaml_lists_every_parameter_with_its_default_and_range(
+        rclpy_context: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, section: str,
+        module: str, cls: str) -> None:
+    import importlib
+
+    import rclpy
+
+    monkeypatch.chdir(tmp_path)  # the default directories are relative: keep them here
+    bare = rclpy.create_node("bare", context=rclpy_context)
+    rclpy_defaults = set(bare._parameters)  # use_sim_time, ...: rclpy's, not ours
+    bare.destroy_node()
+    node = getattr(importlib.import_module(module), cls)(context=rclpy_context)
+    try:
+        declared = _declared(node, rclpy_defaults)
+    finally:
+        node.destroy_node()
+    listed = yaml.safe_load(NODES_YAML.read_text(encoding="utf-8"))[section]["ros__parameters"]
+    assert sorted(listed) == sorted(declared), "nodes.yaml and the node's declarations differ"
+    comments = _comments(section)
+    for name, (value, descriptor) in declared.items():
+        assert _plain(listed[name]) == _plain(value if value is not None else []), name
+        text = comments[name]
+        for r in (*descriptor.integer_range, *descriptor.floating_point_range):
+            assert f"({_num(r.from_value)} to {_num(r.to_value)})" in text, f"{name}: range not listed"
+        if descriptor.additional_constraints.startswith("one of: "):
+            choices = descriptor.additional_constraints.removeprefix("one of: ").split(", ")
+            assert f"({' | '.join(choices)})" in text, f"{name}: choices not listed"
+        assert ("fixed at start" in text) == bool(descriptor.read_only), name
