@@ -27,12 +27,14 @@ from typing import Any
 from pier_monitor.core.identify.damage import DamageState
 from pier_monitor.core.ingest.recording import ns_to_stamp
 
-__all__ = ["DIAGNOSTICS_TOPIC", "DIAGNOSTIC_ARRAY_TYPE", "DIAGNOSTIC_LEVELS",
-           "diagnostics_fields"]
+__all__ = ["DIAGNOSTICS_TOPIC", "DIAGNOSTIC_ARRAY_TYPE", "DIAGNOSTIC_LEVELS", "LEVEL_OK",
+           "LEVEL_WARN", "LEVEL_ERROR", "LEVEL_STALE", "diagnostics_fields", "ingest_silence"]
 
 #: Topic and type of the diagnostics.
 DIAGNOSTICS_TOPIC = "/diagnostics"
 DIAGNOSTIC_ARRAY_TYPE = "diagnostic_msgs/msg/DiagnosticArray"
+#: ``DiagnosticStatus`` levels.
+LEVEL_OK, LEVEL_WARN, LEVEL_ERROR, LEVEL_STALE = 0, 1, 2, 3
 #: ``DiagnosticStatus`` level (OK 0, WARN 1, ERROR 2, STALE 3) of each section state.
 DIAGNOSTIC_LEVELS = {DamageState.INTACT: 0, DamageState.SUSPICIOUS: 1, DamageState.DAMAGED: 2,
                      DamageState.UNKNOWN: 3, DamageState.UNRELIABLE: 1}
@@ -177,3 +179,41 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int, *,
                               {"key": "members", "value": str(fields["members"])}]})
     return {"header": {"stamp": {"sec": sec, "nanosec": nanosec}, "frame_id": ""},
             "status": status}
+
+
+def ingest_silence(channels: int, ages_s: Sequence[float], alive_timeout_s: float,
+                   stale_timeout_s: float) -> tuple[int, str] | None:
+    """Level and message of an ingest whose every channel is silent; None while one is alive.
+
+    A channel is alive while its last message is at most ``alive_timeout_s`` old.  With no
+    channel alive the ingest is WARN; once the newest message of all is older than
+    ``stale_timeout_s`` it is STALE: its status says nothing of the pier any more.  Before
+    any message arrived it is WARN (waiting for data, nothing to be stale).
+
+    Parameters
+    ----------
+    channels : int
+        Sensors of the map (0: no configuration yet; None is returned).
+    ages_s : sequence of float
+        Age of the last message of each sensor that has sent one, s.
+    alive_timeout_s, stale_timeout_s : float
+        s.
+
+    Returns
+    -------
+    (level, message) or None
+        ``LEVEL_WARN`` or ``LEVEL_STALE`` and a message naming how long the data have been
+        silent; None when at least one channel is alive (or there are no channels).
+    """
+    if channels <= 0:
+        return None
+    ages = [float(a) for a in ages_s]
+    if any(a <= alive_timeout_s for a in ages):
+        return None
+    if not ages:
+        return LEVEL_WARN, f"no data yet: none of the {channels} channels has sent a message"
+    silent_s = min(ages)
+    text = f"every channel silent for {silent_s:.1f} s (0 of {channels} channels alive)"
+    if silent_s > stale_timeout_s:
+        return LEVEL_STALE, f"stale: {text}"
+    return LEVEL_WARN, text

@@ -1,4 +1,5 @@
-"""``config/nodes.yaml`` lists every parameter the nodes declare, at its default, with its range.
+"""The nodes in this process: ``config/nodes.yaml`` lists every parameter they declare, at its
+default, with its range; the ingest status when every channel is silent.
 
 The nodes are created in this process (real rclpy, no graph traffic needed) without a
 parameters file, so that what they hold is their defaults; each is compared with the file.
@@ -82,3 +83,35 @@ def test_nodes_yaml_lists_every_parameter_with_its_default_and_range(
             choices = descriptor.additional_constraints.removeprefix("one of: ").split(", ")
             assert f"({' | '.join(choices)})" in text, f"{name}: choices not listed"
         assert ("fixed at start" in text) == bool(descriptor.read_only), name
+
+
+def test_ingest_status_goes_warn_then_stale_when_every_channel_is_silent(
+        rclpy_context: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import time
+
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from rclpy.parameter import Parameter
+
+    from pier_monitor.core.resources import find_config_file
+    from pier_monitor.nodes.ingest_node import IngestNode
+
+    monkeypatch.chdir(tmp_path)
+    node = IngestNode(context=rclpy_context, parameter_overrides=[
+        Parameter("config_file", value=str(find_config_file("edefense_like.yaml"))),
+        Parameter("alive_timeout_s", value=2.0), Parameter("stale_timeout_s", value=30.0)])
+    try:
+        sensors = sorted(node._specs)
+        st = node.status()
+        assert st.level == DiagnosticStatus.WARN and st.message.startswith("no data yet")
+        # as if each sensor's last message came 1 s ago (one alive) / 5 s / 40 s ago
+        now = time.monotonic()
+        for age, level, start in ((1.0, DiagnosticStatus.OK, f"{len(sensors)} channels alive"),
+                                  (5.0, DiagnosticStatus.WARN, "every channel silent for "),
+                                  (40.0, DiagnosticStatus.STALE, "stale: every channel silent")):
+            node._last_seen = {s: now - age for s in sensors}
+            st = node.status()
+            values = {kv.key: kv.value for kv in st.values}
+            assert st.level == level and st.message.startswith(start), st.message
+            assert values["channels_alive"] == (str(len(sensors)) if age < 2.0 else "0")
+    finally:
+        node.destroy_node()

@@ -563,3 +563,20 @@ def test_uncertainty_table_marks_the_df_bound_and_a_first_event_has_no_change() 
     row = uncertainty_table(first).splitlines()[3]
     assert "≤ 0.80 [" in row  # the members' DF of a spring that did not yield: a bound
     assert row.split()[-2:] == ["-", "-20.0"]  # no k1 change; -20 % against design
+
+
+def test_ingest_goes_warn_then_stale_when_every_channel_is_silent() -> None:
+    from pier_monitor.report.diagnostics import LEVEL_STALE, LEVEL_WARN, ingest_silence
+
+    # one channel of three alive (1 s old): no silence status
+    assert ingest_silence(3, [1.0, 40.0, 50.0], alive_timeout_s=2.0, stale_timeout_s=30.0) is None
+    # every channel silent past the alive timeout: WARN, for the newest message's age
+    assert ingest_silence(3, [5.0, 40.0, 50.0], 2.0, 30.0) == (
+        LEVEL_WARN, "every channel silent for 5.0 s (0 of 3 channels alive)")
+    # past the stale timeout: STALE
+    level, message = ingest_silence(3, [31.0, 40.0, 50.0], 2.0, 30.0)
+    assert level == LEVEL_STALE and message.startswith("stale: every channel silent for 31.0 s")
+    # nothing received yet: WARN, waiting; no channels (no configuration): nothing to say
+    assert ingest_silence(2, [], 2.0, 30.0) == (
+        LEVEL_WARN, "no data yet: none of the 2 channels has sent a message")
+    assert ingest_silence(0, [], 2.0, 30.0) is None
