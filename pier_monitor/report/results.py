@@ -5,7 +5,8 @@
 * ``damage_state.mcap`` — one ``pier_monitor_msgs/msg/PierDamageState`` on
   ``/<pier_id>/damage_state`` (``ros2`` profile, CDR, offered latched), what the identifier
   node publishes, with the pier's ``visualization_msgs/MarkerArray`` on
-  ``/<pier_id>/damage_markers`` and its ``/diagnostics``; readable by the standard mcap
+  ``/<pier_id>/damage_markers``, the static transform ``map`` → ``<pier_id>`` of the markers'
+  frame on ``/tf_static`` and its ``/diagnostics``; readable by the standard mcap
   tools, ``mcap-ros2-support`` and Foxglove (``config/foxglove_layout.json``);
 * ``profile.png``, ``hysteresis.png``, ``responses.png``, ``training.png`` (see
   :mod:`~pier_monitor.report.figures`), unless figures are turned off;
@@ -45,7 +46,8 @@ from ._common import check_same_pier, ensure_dir
 from .diagnostics import DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS_TOPIC, diagnostics_fields
 from .figures import (RunLike, check_members_match, check_window_matches, plot_hysteresis,
                       plot_profile, plot_responses, plot_training)
-from .markers import MARKER_ARRAY_TYPE, damage_markers_fields, damage_markers_topic
+from .markers import (MARKER_ARRAY_TYPE, TF_MESSAGE_TYPE, TF_STATIC_TOPIC, damage_markers_fields,
+                      damage_markers_topic, pier_transform_fields)
 
 __all__ = [
     "DAMAGE_STATE_TYPE",
@@ -243,9 +245,10 @@ def write_damage_states_mcap(results: Sequence[IdentificationResult], path: str 
                              stamp_ns: int | None = None) -> Path:
     """Write the damage states of one or more piers as an mcap file (replacing ``path``).
 
-    Per result: its ``PierDamageState`` on :func:`damage_state_topic` and its
-    ``MarkerArray`` on :func:`~pier_monitor.report.markers.damage_markers_topic` (both
-    offered latched), and its ``DiagnosticArray`` on ``/diagnostics``, all logged at the
+    Per result: its ``PierDamageState`` on :func:`damage_state_topic`, its
+    ``MarkerArray`` on :func:`~pier_monitor.report.markers.damage_markers_topic` and the
+    static transform of its frame (``map`` → ``<pier>``) on ``/tf_static`` (all offered
+    latched), and its ``DiagnosticArray`` on ``/diagnostics``, all logged at the
     message's ``header.stamp``.
 
     Raises
@@ -265,6 +268,9 @@ def write_damage_states_mcap(results: Sequence[IdentificationResult], path: str 
                 (damage_state_topic(result.pier_id), DAMAGE_STATE_TYPE, True, msg),
                 (damage_markers_topic(result.pier_id), MARKER_ARRAY_TYPE, True,
                  message_from_fields(MARKER_ARRAY_TYPE, damage_markers_fields(fields))),
+                (TF_STATIC_TOPIC, TF_MESSAGE_TYPE, True, message_from_fields(
+                    TF_MESSAGE_TYPE, pier_transform_fields([result.pier_id],
+                                                           fields["header"]["stamp"]))),
                 (DIAGNOSTICS_TOPIC, DIAGNOSTIC_ARRAY_TYPE, False,
                  message_from_fields(DIAGNOSTIC_ARRAY_TYPE, diagnostics_fields(
                      fields, log_ns, k1_vs_design_pct=k1_vs_design(result))))):

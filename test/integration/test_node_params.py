@@ -115,3 +115,35 @@ def test_ingest_status_goes_warn_then_stale_when_every_channel_is_silent(
             assert values["channels_alive"] == (str(len(sensors)) if age < 2.0 else "0")
     finally:
         node.destroy_node()
+
+
+def test_identifier_hangs_each_pier_frame_from_parent_frame_where_tf2_msgs_exists(
+        rclpy_context: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from rclpy.parameter import Parameter
+
+    from pier_monitor.nodes import conversions
+    from pier_monitor.nodes.identifier_node import IdentifierNode
+
+    monkeypatch.chdir(tmp_path)
+    node = IdentifierNode(context=rclpy_context,
+                          parameter_overrides=[Parameter("parent_frame", value="site")])
+    try:
+        node._publish_frame("p1")
+        node._publish_frame("p2")
+        node._publish_frame("p1")  # once per pier
+        assert node._frames == ["p1", "p2"]
+        if conversions.TFMessage is None:
+            # the environment's ROS wheels have no tf2_msgs: nothing is published (logged)
+            assert node._tf_pub is None
+            with pytest.raises(RuntimeError, match="tf2_msgs is not installed"):
+                conversions.pier_transforms_msg(["p1"], 0)
+            return
+        msg = conversions.pier_transforms_msg(node._frames, 5_000_000_001, parent_frame="site")
+        assert [(t.header.frame_id, t.child_frame_id) for t in msg.transforms] == [
+            ("site", "p1"), ("site", "p2")]
+        assert (msg.transforms[0].header.stamp.sec,
+                msg.transforms[0].header.stamp.nanosec) == (5, 1)
+        assert msg.transforms[0].transform.rotation.w == 1.0
+        assert node.count_publishers("/tf_static") == 1
+    finally:
+        node.destroy_node()

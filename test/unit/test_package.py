@@ -95,3 +95,39 @@ def test_the_launch_file_gives_a_launch_description_where_launch_ros_is_installe
     assert isinstance(description, launch.LaunchDescription)
     nodes = [e for e in description.entities if isinstance(e, launch_ros.actions.Node)]
     assert len(nodes) == len(namespace["NODES"]) == 2
+
+
+def test_launchers_in_lib_pier_monitor_are_what_ros2_run_finds_and_they_run(
+        tmp_path: Path, monkeypatch) -> None:
+    import os
+    import subprocess
+    import sys
+
+    from ament_index_python.packages import get_package_prefix
+
+    # a prefix as scripts/setup_env.sh leaves the venv: the ament index marker and the launchers
+    write_launchers = runpy.run_path(str(ROOT / "scripts" / "link_data_files.py"))[
+        "write_launchers"]
+    marker = tmp_path / "share" / "ament_index" / "resource_index" / "packages" / "pier_monitor"
+    marker.parent.mkdir(parents=True)
+    marker.touch()
+    (tmp_path / "lib" / "pier_monitor").mkdir(parents=True)
+    (tmp_path / "lib" / "pier_monitor" / "old_node").write_text(
+        "# written by scripts/link_data_files.py\n")  # a launcher no longer declared
+    written = write_launchers(ROOT / "setup.py", tmp_path, sys.executable)
+    assert sorted(p.name for p in written) == sorted(console_scripts())
+    assert sorted(p.name for p in (tmp_path / "lib" / "pier_monitor").iterdir()) == sorted(
+        console_scripts())
+    # what `ros2 run pier_monitor ingest` does: the package's prefix from the ament index,
+    # then an executable file of that name in <prefix>/lib/pier_monitor
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path))
+    prefix = Path(get_package_prefix("pier_monitor"))
+    assert prefix == tmp_path
+    executable = prefix / "lib" / "pier_monitor" / "ingest"
+    assert executable.is_file() and os.access(executable, os.X_OK)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    done = subprocess.run([str(executable), "--help"], capture_output=True, text=True,
+                          timeout=120, env=env, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("usage: ros2 run pier_monitor ingest [--ros-args")
+    assert "Ingest node: sensor topics" in done.stdout

@@ -114,7 +114,18 @@ def test_damage_state_mcap_decodes_with_mcap_ros2(identified, written) -> None:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         msgs = {channel.topic: (schema, channel, message, decoded)
                 for schema, channel, message, decoded in reader.iter_decoded_messages()}
-    assert sorted(msgs) == ["/diagnostics", "/table1/damage_markers", "/table1/damage_state"]
+    assert sorted(msgs) == ["/diagnostics", "/table1/damage_markers", "/table1/damage_state",
+                            "/tf_static"]
+    # the markers' frame resolves: map -> table1, identity, latched
+    schema, channel, message, tf = msgs["/tf_static"]
+    assert schema.name == "tf2_msgs/msg/TFMessage" and message.log_time == START_NS
+    assert "transient_local" in channel.metadata.get("offered_qos_profiles", "")
+    (t,) = tf.transforms
+    assert (t.header.frame_id, t.child_frame_id) == ("map", "table1")
+    assert (t.transform.translation.x, t.transform.translation.y,
+            t.transform.translation.z) == (0.0, 0.0, 0.0)
+    assert (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+            t.transform.rotation.w) == (0.0, 0.0, 0.0, 1.0)
     schema, channel, message, decoded = msgs[damage_state_topic("table1")]
     assert schema.name == "pier_monitor_msgs/msg/PierDamageState"
     assert message.log_time == START_NS
@@ -580,3 +591,16 @@ def test_ingest_goes_warn_then_stale_when_every_channel_is_silent() -> None:
     assert ingest_silence(2, [], 2.0, 30.0) == (
         LEVEL_WARN, "no data yet: none of the 2 channels has sent a message")
     assert ingest_silence(0, [], 2.0, 30.0) is None
+
+
+def test_pier_transforms_hang_every_pier_frame_from_the_parent() -> None:
+    from pier_monitor.report.markers import pier_transform_fields
+
+    fields = pier_transform_fields(["p1", "p2"], {"sec": 3, "nanosec": 4}, parent_frame="site")
+    assert [(t["header"]["frame_id"], t["child_frame_id"]) for t in fields["transforms"]] == [
+        ("site", "p1"), ("site", "p2")]
+    assert fields["transforms"][1]["header"]["stamp"] == {"sec": 3, "nanosec": 4}
+    assert fields["transforms"][0]["transform"]["rotation"]["w"] == 1.0
+    with pytest.raises(ValueError, match=r"parent_frame: expected a frame other than the "
+                                         r"piers' \['p1'\], got 'p1'"):
+        pier_transform_fields(["p1"], {"sec": 0, "nanosec": 0}, parent_frame="p1")
