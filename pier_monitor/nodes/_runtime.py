@@ -7,7 +7,6 @@ lost while a PINN trains.
 
 from __future__ import annotations
 
-import inspect
 import queue
 import signal
 import sys
@@ -93,7 +92,7 @@ class QueueWorker(Generic[T]):
 def node_usage(node_class: Callable[[], Node], program: str) -> str:
     """The ``--help`` text of a node: how to run it, then its module's documentation."""
     name = Path(program).name
-    doc = inspect.getdoc(sys.modules[node_class.__module__]) or ""
+    doc = (sys.modules[node_class.__module__].__doc__ or "").strip()
     return (f"usage: ros2 run pier_monitor {name} [--ros-args -r __ns:=/<pier_id> "
             f"--params-file nodes.yaml -p NAME:=VALUE ...]\n"
             f"   or: {name} --ros-args ... (the same executable)\n\n{doc}\n\n"
