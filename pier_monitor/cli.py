@@ -306,8 +306,8 @@ def _print_event(ev: EventOutcome) -> None:
         print(f"\nevent {r.event_id}: window {w.duration_s:.1f} s, trained {r.epochs} epochs "
               f"in {r.wall_time_s:.1f} s on {r.device}; overall state {r.overall_state.upper()}")
         print(f"{'section':>8} {'z (m)':>11} {'k1 (N·m/rad)':>13} {'k2 (N·m/rad)':>13} "
-              f"{'fy (N·m)':>10} {'c (N·m·s/rad)':>14} {'DF':>7} {'state':>10} {'k1 change':>10} "
-              f"{'vs design':>10}")
+              f"{'fy (N·m)':>10} {'c (N·m·s/rad)':>14} {'DF':>7} {'state':>10} "
+              f"{'k1 change':>10} {'vs design':>10}")
         for sec in r.sections:
             k2 = f"{sec.k2:.4g}" if sec.k2_identifiable else "n/a"
             fy = f"{sec.fy:.4g}" if sec.fy_identifiable else f">={sec.fy:.3g}"

@@ -250,8 +250,9 @@ class IngestNode(Node):
             if failed:
                 parts.append(f"{len(failed)} events without a window: "
                              f"{', '.join(o.event_id for o in failed)}")
-            level = DiagnosticStatus.WARN if silence is None else silence[0]
-            st.level, st.message = bytes([level]), "; ".join(parts)[:500]
+            # rclpy's byte field takes one-byte bytes (the constants are)
+            level = DiagnosticStatus.WARN if silence is None else bytes([silence[0]])
+            st.level, st.message = level, "; ".join(parts)[:500]
         else:
             st.level, st.message = DiagnosticStatus.OK, f"{len(alive)} channels alive"
         values = {

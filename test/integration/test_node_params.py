@@ -113,6 +113,14 @@ def test_ingest_status_goes_warn_then_stale_when_every_channel_is_silent(
             values = {kv.key: kv.value for kv in st.values}
             assert st.level == level and st.message.startswith(start), st.message
             assert values["channels_alive"] == (str(len(sensors)) if age < 2.0 else "0")
+        # dropped messages: WARN while channels are alive, still STALE once all are silent
+        node._dropped = 2
+        node._last_seen = {s: now - 1.0 for s in sensors}
+        st = node.status()
+        assert st.level == DiagnosticStatus.WARN and st.message.startswith("2 messages dropped")
+        node._last_seen = {s: now - 40.0 for s in sensors}
+        st = node.status()
+        assert st.level == DiagnosticStatus.STALE and "; 2 messages dropped" in st.message
     finally:
         node.destroy_node()
 

@@ -178,9 +178,11 @@ class SectionResult:
     ``k1_change_pct`` is the change of ``k1`` against the result's baseline (%, None without
     one: the first event of a pier has no change).  ``k1_vs_design_pct`` is the difference of
     ``k1`` from the design values (%, None when not known): no change and never a basis of a
-    state (:meth:`IdentificationResult.with_design_k1`).  A section identified by an ensemble also has its ``uncertainty``, the 90 %
-    interval of that change (``k1_change_lo_pct``, ``k1_change_hi_pct``, %) with the
-    identification scatter it is judged against (``k1_change_scatter_pct``, percentage
+    state (:meth:`IdentificationResult.with_design_k1`).  ``ductility_factor_upper_bound``
+    (in :meth:`to_dict` too) says that the DF is only an upper bound.  A section identified
+    by an ensemble also has its ``uncertainty``, the 90 % interval of that change
+    (``k1_change_lo_pct``, ``k1_change_hi_pct``, %) with the identification scatter it is
+    judged against (``k1_change_scatter_pct``, percentage
     points), and the ``reasons`` for a state promoted above the most probable one
     (:func:`decide_state`); all None / empty for a single identification.
     """
@@ -441,7 +443,8 @@ class IdentificationResult:
         d["sections"] = tuple(SectionResult.from_dict(s) for s in d["sections"])
         for name in ("window_start_s", "window_duration_s", "final_loss", "wall_time_s"):
             d[name] = nan_if_none(d[name])
-        d["history"] = {k: [nan_if_none(v) for v in vs] if isinstance(vs, list) else vs
+        d["history"] = {k: [math.nan if v is None else v for v in vs]
+                        if isinstance(vs, list) else vs
                         for k, vs in d.get("history", {}).items()}
         if d.get("p_overall_state") is not None:
             d["p_overall_state"] = tuple(float(v) for v in d["p_overall_state"])
