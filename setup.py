@@ -14,7 +14,9 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", sorted(glob("config/*.yaml"))),
-        ("share/" + package_name + "/launch", sorted(glob("launch/*.launch.py"))),
+        # launch_files/ in the source tree (a launch/ folder would shadow the launch package
+        # when Python runs from the repository root); installed where ros2 launch looks
+        ("share/" + package_name + "/launch", sorted(glob("launch_files/*.launch.py"))),
     ],
     # Runtime dependencies (ROS 2 wheels, torch, numpy, ...) are pinned in requirements.txt
     # and declared for rosdep in package.xml; setuptools only needs itself here.

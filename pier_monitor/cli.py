@@ -18,7 +18,6 @@ demo      the main job on the embedded default data
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 from collections.abc import Sequence
@@ -31,6 +30,7 @@ from pier_monitor.bags.synthetic_bag import (SyntheticBagInfo, write_synthetic_b
 from pier_monitor.bags.synthetic_fleet import FLEET_TRUTH_JSON, write_synthetic_fleet
 from pier_monitor.bench import DEFAULT_SUITES, SUITES, format_table
 from pier_monitor.core.errors import PierMonitorError, ReportError
+from pier_monitor.core.fileio import to_strict_json
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.ingest.settings import Finding, fmt_span
 from pier_monitor.core.model.config import load_config
@@ -318,14 +318,21 @@ def _print_event(ev: EventOutcome) -> None:
         print(f"\nevent {r.event_id}{part}: window {w.duration_s:.1f} s, trained {r.epochs} epochs "
               f"in {r.wall_time_s:.1f} s on {r.device}; overall state {r.overall_state.upper()}")
         print(f"{'section':>8} {'z (m)':>11} {'k1 (N·m/rad)':>13} {'k2 (N·m/rad)':>13} "
-              f"{'fy (N·m)':>10} {'c (N·m·s/rad)':>14} {'DF':>7} {'state':>10} {'k1 change':>10}")
+              f"{'fy (N·m)':>10} {'c (N·m·s/rad)':>14} {'DF':>7} {'state':>10} "
+              f"{'k1 change':>10} {'vs design':>10}")
         for sec in r.sections:
             k2 = f"{sec.k2:.4g}" if sec.k2_identifiable else "n/a"
             fy = f"{sec.fy:.4g}" if sec.fy_identifiable else f">={sec.fy:.3g}"
-            ch = "" if sec.k1_change_pct is None else f"{sec.k1_change_pct:+.1f} %"
+            # a change only against an earlier event; the first event's "-"
+            ch = "-" if sec.k1_change_pct is None else f"{sec.k1_change_pct:+.1f} %"
+            design = "" if sec.k1_vs_design_pct is None else f"{sec.k1_vs_design_pct:+.1f} %"
             print(f"{sec.index + 1:>8} {sec.z_bottom_m:>5.1f}-{sec.z_top_m:<5.1f} {sec.k1:>13.4g} "
                   f"{k2:>13} {fy:>10} {sec.c:>14.4g} {format_df(sec.ductility_factor, sec.yielded):>7} "
-                  f"{sec.state:>10} {ch:>10}")
+                  f"{sec.state:>10} {ch:>10} {design:>10}")
+        print(f"k1 change: against {r.k1_baseline or 'nothing (no earlier event)'}; vs design: "
+              "difference from the design values, not a change")
+        if any(not sec.yielded for sec in r.sections):
+            print("DF ≤: the spring did not yield; its DF is only an upper bound")
         for reason in r.unreliable_reasons:
             print(f"unreliable: {reason}")
         table = uncertainty_table(r)
@@ -540,7 +547,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     print(format_table(results))
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=2) + "\n")
+        args.json.write_text(to_strict_json(results, indent=2) + "\n")
         print(f"wrote {args.json}")
     return 0
 

@@ -82,7 +82,8 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
 
     1. The window is stored in its event directory before training starts.
     2. The baseline is :meth:`ResultsStore.baseline_for` (the earliest earlier successful
-       result of the same pier; none: the design values).
+       result of the same pier; none: the event has no ``k1`` change, only its difference
+       from the design values).
     3. The method chosen identifies it (:func:`pier_monitor.core.identify.methods.identify`).
     4. The result checks itself
        (:func:`~pier_monitor.core.identify.checks.check_identification`): any reason makes

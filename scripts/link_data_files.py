@@ -1,9 +1,15 @@
-"""Link the package's ``data_files`` (ament index marker, package.xml, config) into the venv.
+"""Link the package's ``data_files`` (ament index marker, package.xml, config) into the venv,
+and write its executables where ``ros2 run`` looks for them.
 
 An editable install (``pip install -e .``) installs the code and the console scripts but not
 ``data_files``, which ROS tooling looks up under ``<prefix>/share``. This mirrors what
 ``colcon build --symlink-install`` does for an ament_python package: each data file is
 symlinked from the venv prefix to the source tree, so edits show up without reinstalling.
+
+pip also puts the console scripts into ``<prefix>/bin`` (it ignores setup.cfg's
+``install_scripts``), while ``ros2 run pier_monitor ingest`` looks in
+``<prefix>/lib/pier_monitor/`` of the package's prefix in the ament index.  So every console
+script also gets a launcher there, as colcon installs it (:func:`write_launchers`).
 
 Run it with the venv's python: the prefix is ``sys.prefix``.
 """
@@ -66,6 +72,48 @@ def link_data_files(setup_py: Path, prefix: Path) -> int:
     return count
 
 
+LAUNCHER = """#!{python}
+# {name}: the {package} executable `ros2 run {package} {name}` starts (written by
+# scripts/link_data_files.py, as colcon installs an ament_python console script)
+import sys
+
+from {module} import {function}
+
+if __name__ == "__main__":
+    sys.exit({function}())
+"""
+
+
+def write_launchers(setup_py: Path, prefix: Path, python: str | Path) -> list[Path]:
+    """Write ``<prefix>/lib/<package>/<name>`` for every console script of ``setup_py``.
+
+    Each is an executable Python script run by ``python`` that calls the entry point, what
+    colcon installs for an ament_python package; launchers of console scripts that are no
+    longer declared are removed.  Returns the launchers written.
+    """
+    kwargs = read_setup_kwargs(setup_py)
+    package = kwargs["name"]
+    scripts = kwargs.get("entry_points", {}).get("console_scripts", [])
+    target_dir = prefix / "lib" / package
+    target_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for entry in scripts:
+        name, target = (part.strip() for part in entry.split("=", 1))
+        module, function = (part.strip() for part in target.split(":", 1))
+        path = target_dir / name
+        if path.is_symlink() or path.exists():
+            path.unlink()
+        path.write_text(LAUNCHER.format(python=python, name=name, package=package,
+                                        module=module, function=function), encoding="utf-8")
+        path.chmod(0o755)
+        written.append(path)
+    for stale in target_dir.iterdir():
+        if stale not in written and stale.is_file() and stale.read_text(
+                encoding="utf-8", errors="replace").find("scripts/link_data_files.py") >= 0:
+            stale.unlink()
+    return written
+
+
 def main() -> int:
     if sys.prefix == sys.base_prefix:
         print("link_data_files: run this with the virtual environment python (.venv/bin/python)",
@@ -73,6 +121,10 @@ def main() -> int:
         return 2
     count = link_data_files(ROOT / "setup.py", Path(sys.prefix))
     print(f"link_data_files: linked {count} data files into {sys.prefix}/share")
+    launchers = write_launchers(ROOT / "setup.py", Path(sys.prefix), Path(sys.prefix) / "bin" /
+                                "python")
+    print(f"link_data_files: wrote {len(launchers)} executables into "
+          f"{sys.prefix}/lib/{read_setup_kwargs(ROOT / 'setup.py')['name']} (ros2 run)")
     return 0
 
 

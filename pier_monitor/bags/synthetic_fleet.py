@@ -14,12 +14,11 @@ writes into ``out_dir``:
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pier_monitor.core.fileio import atomic_path
+from pier_monitor.core.fileio import atomic_path, to_strict_json
 from pier_monitor.core.synthetic.fleet import FleetPier, fleet_piers
 from pier_monitor.core.synthetic.shaking_table import SyntheticTruth, generate_recording, save_truth
 
@@ -114,7 +113,7 @@ def write_synthetic_fleet(out_dir: str | Path, n: int, *, seed: int = 0,
     target = out / FLEET_TRUTH_JSON
     try:
         with atomic_path(target) as tmp:
-            tmp.write_text(json.dumps(index, indent=1) + "\n", encoding="utf-8")
+            tmp.write_text(to_strict_json(index, indent=1) + "\n", encoding="utf-8")
     except OSError as err:
         raise BagError(f"{target}: cannot write: {err.strerror or err}") from err
     return tuple(written)

@@ -36,7 +36,7 @@ from typing import Any
 
 from pier_monitor.bags import read_bag_config
 from pier_monitor.core.errors import PierMonitorError, ReportError
-from pier_monitor.core.fileio import atomic_path
+from pier_monitor.core.fileio import atomic_path, to_strict_json
 from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest import IngestSettings
 from pier_monitor.core.ingest.window import MeasuredWindow
@@ -208,7 +208,7 @@ def _write_record(out: Path, bag: Path, fingerprint: str, got: BagWindows) -> No
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp:
-            tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+            tmp.write_text(to_strict_json(doc, indent=1) + "\n", encoding="utf-8")
     except OSError as err:
         raise ReportError(f"{path}: cannot write the bag's record: {err.strerror or err}") from err
 

@@ -9,15 +9,17 @@ from __future__ import annotations
 
 import queue
 import signal
+import sys
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Generic, TypeVar
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
-__all__ = ["QueueWorker", "run_node"]
+__all__ = ["QueueWorker", "node_usage", "run_node"]
 
 T = TypeVar("T")
 _STOP = object()
@@ -87,12 +89,30 @@ class QueueWorker(Generic[T]):
                 self._on_error(item, err)  # type: ignore[arg-type]
 
 
+def node_usage(node_class: Callable[[], Node], program: str) -> str:
+    """The ``--help`` text of a node: how to run it, then its module's documentation."""
+    name = Path(program).name
+    doc = (sys.modules[node_class.__module__].__doc__ or "").strip()
+    return (f"usage: ros2 run pier_monitor {name} [--ros-args -r __ns:=/<pier_id> "
+            f"--params-file nodes.yaml -p NAME:=VALUE ...]\n"
+            f"   or: {name} --ros-args ... (the same executable)\n\n{doc}\n\n"
+            "Parameters: config/nodes.yaml lists each with its default and range; "
+            "`ros2 param describe` gives the same on a running node.")
+
+
 def run_node(node_class: Callable[[], Node], args: list[str] | None = None) -> int:
     """Spin one node on a SingleThreadedExecutor until Ctrl-C / SIGTERM; clean shutdown.
 
     Prints ``READY <fully qualified name>`` once the node is constructed (the launch-free
-    scripts and the tests wait for it).
+    scripts and the tests wait for it).  ``-h`` / ``--help`` before any ROS arguments prints
+    the node's usage and returns 0 without starting it.
     """
+    user_args = list(args or [])[1:]
+    if "--ros-args" in user_args:
+        user_args = user_args[:user_args.index("--ros-args")]
+    if {"-h", "--help"} & set(user_args):
+        print(node_usage(node_class, (args or ["node"])[0]))
+        return 0
     rclpy.init(args=args)
     node = None
     executor = SingleThreadedExecutor()

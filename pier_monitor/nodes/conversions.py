@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import TransformStamped
 from pier_monitor_msgs.msg import (IdentificationProgress, MainshockWindow, PierDamageState,
                                    SampleBlock, SectionState)
 from sensor_msgs.msg import Imu
@@ -27,7 +29,13 @@ from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
 from pier_monitor.core.model.config import (PierConfig, PierGeometry, SensorSpec,
                                             SpringParameters)
 from pier_monitor.report.diagnostics import diagnostics_fields
-from pier_monitor.report.markers import damage_markers_fields
+from pier_monitor.report.markers import (DEFAULT_PARENT_FRAME, damage_markers_fields,
+                                         pier_transform_fields)
+
+try:  # a ROS 2 installation has it; the PyPI wheels of the project's environment do not
+    from tf2_msgs.msg import TFMessage
+except ImportError:
+    TFMessage = None
 
 if TYPE_CHECKING:  # the type only: the ingest node does not load the PINN (torch)
     from pier_monitor.core.identify.methods import Progress
@@ -45,6 +53,7 @@ __all__ = [
     "progress_msg",
     "damage_diagnostics",
     "damage_markers_msg",
+    "pier_transforms_msg",
 ]
 
 
@@ -278,7 +287,8 @@ def progress_msg(event_id: str, progress: Progress, stamp_ns: int) -> Identifica
     return msg
 
 
-def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray:
+def damage_diagnostics(fields: dict[str, Any], stamp_ns: int, *,
+                       k1_vs_design_pct: Sequence[float | None] = ()) -> DiagnosticArray:
     """``/diagnostics`` of a damage state (:func:`pier_monitor.report.diagnostics.
     diagnostics_fields`): one status per section, then the identifier's.
 
@@ -288,8 +298,11 @@ def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray
         :func:`pier_monitor.report.results.damage_state_fields` of the result.
     stamp_ns : int
         ``header.stamp``, ns since the Unix epoch.
+    k1_vs_design_pct : sequence of float or None
+        Per section, the difference of ``k1`` from the design values, %
+        (:func:`pier_monitor.report.results.k1_vs_design`).
     """
-    diag = diagnostics_fields(fields, stamp_ns)
+    diag = diagnostics_fields(fields, stamp_ns, k1_vs_design_pct=k1_vs_design_pct)
     for st in diag["status"]:
         st["level"] = bytes([st["level"]])  # rclpy's byte fields take one-byte bytes
     return fill_message(DiagnosticArray(), diag)
@@ -298,3 +311,25 @@ def damage_diagnostics(fields: dict[str, Any], stamp_ns: int) -> DiagnosticArray
 def damage_markers_msg(fields: dict[str, Any]) -> MarkerArray:
     """The pier's MarkerArray (:func:`pier_monitor.report.markers.damage_markers_fields`)."""
     return fill_message(MarkerArray(), damage_markers_fields(fields))
+
+
+def pier_transforms_msg(pier_ids: list[str], stamp_ns: int, *,
+                        parent_frame: str = DEFAULT_PARENT_FRAME) -> Any:
+    """The ``tf2_msgs/TFMessage`` of the transforms ``parent_frame`` → each pier
+    (:func:`pier_monitor.report.markers.pier_transform_fields`).
+
+    Raises
+    ------
+    RuntimeError
+        If ``tf2_msgs`` is not installed.
+    ValueError
+        If ``parent_frame`` is empty or one of the piers.
+    """
+    if TFMessage is None:
+        raise RuntimeError("tf2_msgs is not installed")
+    sec, nanosec = ns_to_stamp(stamp_ns)
+    fields = pier_transform_fields(list(pier_ids), {"sec": sec, "nanosec": nanosec},
+                                   parent_frame=parent_frame)
+    msg = TFMessage()
+    msg.transforms = [fill_message(TransformStamped(), t) for t in fields["transforms"]]
+    return msg

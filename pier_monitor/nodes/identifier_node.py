@@ -8,7 +8,14 @@ Topics (relative; run the node in the pier's namespace):
 * out ``damage_state`` (``PierDamageState``, reliable, transient local depth 1: latched);
 * out ``damage_markers`` (``visualization_msgs/MarkerArray``, latched): the pier for RViz and
   Foxglove, a cylinder per section coloured by state, labelled with DF and the k1 change
-  (:mod:`pier_monitor.report.markers`);
+  (:mod:`pier_monitor.report.markers`), in frame ``<pier_id>``;
+* out ``/tf_static`` (``tf2_msgs/TFMessage``, reliable, transient local depth 1, as
+  ``tf2_ros.StaticTransformBroadcaster`` offers it): the identity transform
+  ``parent_frame`` (``map``) → ``<pier_id>`` of every pier the node published markers of,
+  so that the markers' frame resolves.  Where ``tf2_msgs`` is not installed (the PyPI
+  wheels of the project's environment have none) the node logs once that no transform is
+  published: the markers are in frame ``<pier_id>``, which a display resolves when it is
+  its fixed frame (the results mcap carries the transform in any case);
 * out ``/diagnostics`` (``DiagnosticArray``): one status per section, OK / WARN / ERROR for
   intact / suspicious / damaged (WARN with the reasons when the result is unreliable, STALE
   when the identification failed), and the identifier's, republished every
@@ -50,14 +57,15 @@ from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import TrainingStopped, identify_window
 from pier_monitor.fleet import EventTask, RayBackend, identify_event
 from pier_monitor.core.identify.methods import METHODS, IdentifySettings, Progress
-from pier_monitor.report.results import damage_state_fields
+from pier_monitor.report.markers import DEFAULT_PARENT_FRAME, TF_STATIC_TOPIC
+from pier_monitor.report.results import damage_state_fields, k1_vs_design
 from pier_monitor.report.store import ResultsStore
 
 from ._params import declare
 from ._runtime import QueueWorker, run_node
-from .conversions import (damage_diagnostics, damage_markers_msg, damage_state_msg,
-                          progress_msg, window_from_msg)
-from .qos import DAMAGE_STATE_QOS, WINDOW_QOS
+from .conversions import (TFMessage, damage_diagnostics, damage_markers_msg, damage_state_msg,
+                          pier_transforms_msg, progress_msg, window_from_msg)
+from .qos import DAMAGE_STATE_QOS, TF_STATIC_QOS, WINDOW_QOS
 
 __all__ = ["IdentifierNode", "main", "DEVICES"]
 
@@ -112,6 +120,10 @@ class IdentifierNode(Node):
             "ray://host:10001) instead of in this process; empty: here", read_only=True)
         declare(self, "diagnostics_period_s", 1.0, "Period of /diagnostics republication",
                 unit="s", lo=0.1, hi=60.0)
+        self._parent_frame = declare(
+            self, "parent_frame", DEFAULT_PARENT_FRAME, "Frame of the static transform to "
+            "each pier's frame (the markers' frame_id, the pier id) on /tf_static",
+            read_only=True)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         # The first check ran before the callback existed: apply it to the declared values.
         result = self._on_set_parameters([self.get_parameter("device"),
@@ -129,6 +141,10 @@ class IdentifierNode(Node):
         self._markers_pub = self.create_publisher(MarkerArray, "damage_markers",
                                                   DAMAGE_STATE_QOS)
         self._ray = RayBackend(ray_address) if ray_address else None
+        self._frames: list[str] = []  # pier frames whose transform is on /tf_static
+        self._tf_pub = None
+        if TFMessage is not None:
+            self._tf_pub = self.create_publisher(TFMessage, TF_STATIC_TOPIC, TF_STATIC_QOS)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._diag_timer = self.create_timer(self.get_parameter("diagnostics_period_s").value,
                                              self._publish_diagnostics)
@@ -207,9 +223,31 @@ class IdentifierNode(Node):
             self.get_logger().error(f"{window.event_id}: {result.message}")
         fields = damage_state_fields(result, stamp_ns=self._now_ns())
         self._state_pub.publish(damage_state_msg(fields))
+        self._publish_frame(result.pier_id)
         self._markers_pub.publish(damage_markers_msg(fields))
-        self._diagnostics = damage_diagnostics(fields, self._now_ns())
+        self._diagnostics = damage_diagnostics(fields, self._now_ns(),
+                                               k1_vs_design_pct=k1_vs_design(result))
         self._diag_pub.publish(self._diagnostics)
+
+    def _publish_frame(self, pier_id: str) -> None:
+        """Once per pier: the static transform parent_frame → pier_id (all piers in one
+        message, as a latched /tf_static publisher keeps only its last)."""
+        if pier_id in self._frames:
+            return
+        self._frames.append(pier_id)
+        if self._tf_pub is None:
+            self.get_logger().warning(
+                f"tf2_msgs is not installed: no transform {self._parent_frame} -> {pier_id} "
+                f"on {TF_STATIC_TOPIC}; the markers are in frame {pier_id!r} (use it as the "
+                "display's fixed frame)")
+            return
+        try:
+            msg = pier_transforms_msg(self._frames, self._now_ns(),
+                                      parent_frame=self._parent_frame)
+        except ValueError as err:
+            self.get_logger().error(f"parent_frame: {err}")
+            return
+        self._tf_pub.publish(msg)
 
     def _identify_on_ray(self, window: MeasuredWindow, settings: IdentifySettings
                          ) -> IdentificationResult:

@@ -11,7 +11,9 @@ Topics (relative: run the node in the pier's namespace, e.g. ``/edefense_pier``)
   window is written to ``window_dir/<event_id>.npz`` *before* it is published;
 * out ``ingest_status`` and ``/diagnostics`` (``DiagnosticArray``): samples received, blocks
   dropped, channels alive, gaps, duplicates, exclusions, the number of ingest findings; WARN
-  naming the sensors with an exclusion.  An event the ingest can give no window of (a level
+  naming the sensors with an exclusion; WARN when every channel has been silent for
+  ``alive_timeout_s`` and STALE after ``stale_timeout_s``
+  (:func:`~pier_monitor.report.diagnostics.ingest_silence`).  An event the ingest can give no window of (a level
   left without usable sensors, or the stream ending while the ground still shakes) adds a
   status of its own, ``pier_monitor/<pier>/ingest/<event_id>``, at ERROR with the reason
   (level, sensors, time, cause), and is logged as an error.
@@ -44,6 +46,8 @@ from pier_monitor.core.ingest import StreamIngest
 from pier_monitor.core.ingest.settings import EventIngest, fmt_time
 from pier_monitor.core.ingest.window import MeasuredWindow, save_window
 from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml, load_config
+
+from pier_monitor.report.diagnostics import ingest_silence
 
 from ._params import declare
 from ._runtime import QueueWorker, run_node
@@ -78,7 +82,10 @@ class IngestNode(Node):
         declare(self, "status_period_s", 1.0, "Period of the status on ingest_status and "
                 "/diagnostics", unit="s", lo=0.1, hi=60.0)
         declare(self, "alive_timeout_s", 2.0, "A channel with no message for this long "
-                "counts as not alive", unit="s", lo=0.1, hi=600.0)
+                "counts as not alive; with every channel silent the status is WARN",
+                unit="s", lo=0.1, hi=600.0)
+        declare(self, "stale_timeout_s", 30.0, "With every channel silent for this long the "
+                "status is STALE", unit="s", lo=0.1, hi=3600.0)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._stream: StreamIngest | None = None
@@ -232,17 +239,23 @@ class IngestNode(Node):
         st.name = self._status_name()
         st.hardware_id = self.get_namespace()
         gaps = counts.gap_samples if counts else 0
+        silence = ingest_silence(len(self._specs), [now - t for t in self._last_seen.values()],
+                                 timeout, self.get_parameter("stale_timeout_s").value)
         if stream is None:
             st.level, st.message = DiagnosticStatus.WARN, "waiting for the pier configuration"
-        elif self._dropped or gaps or exclusions or failed:
-            parts = [f"{self._dropped} messages dropped, {gaps} samples missing, "
-                     f"{len(exclusions)} exclusions"]
+        elif silence is not None or self._dropped or gaps or exclusions or failed:
+            parts = [] if silence is None else [silence[1]]
+            if self._dropped or gaps or exclusions:
+                parts.append(f"{self._dropped} messages dropped, {gaps} samples missing, "
+                             f"{len(exclusions)} exclusions")
             if excluded:
                 parts.append(f"excluded: {', '.join(excluded)}")
             if failed:
                 parts.append(f"{len(failed)} events without a window: "
                              f"{', '.join(o.event_id for o in failed)}")
-            st.level, st.message = DiagnosticStatus.WARN, "; ".join(parts)[:500]
+            # rclpy's byte field takes one-byte bytes (the constants are)
+            level = DiagnosticStatus.WARN if silence is None else bytes([silence[0]])
+            st.level, st.message = level, "; ".join(parts)[:500]
         else:
             st.level, st.message = DiagnosticStatus.OK, f"{len(alive)} channels alive"
         values = {

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ["SENSOR_QOS", "IMU_QOS", "LATCHED_QOS", "WINDOW_QOS", "DAMAGE_STATE_QOS"]
+__all__ = ["SENSOR_QOS", "IMU_QOS", "LATCHED_QOS", "WINDOW_QOS", "DAMAGE_STATE_QOS",
+           "TF_STATIC_QOS"]
 
 #: Sensor streams: reliable with a deep queue (a 0.1 s block per message and sensor), so that
 #: a short stall of the executor loses nothing.
@@ -26,3 +27,5 @@ WINDOW_QOS = LATCHED_QOS
 DAMAGE_STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                               reliability=ReliabilityPolicy.RELIABLE,
                               durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: /tf_static as tf2_ros.StaticTransformBroadcaster offers it: latched, depth 1.
+TF_STATIC_QOS = DAMAGE_STATE_QOS

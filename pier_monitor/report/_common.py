@@ -56,11 +56,15 @@ def engineering_scale(values: np.ndarray | Sequence[float] | float, unit: str
     return _PREFIXES[-1][0], _PREFIXES[-1][1] + unit
 
 
-def format_df(df: float, yielded: bool) -> str:
-    """A ductility factor as text; ``<=`` marks the upper bound of a spring that never yielded."""
+def format_df(df: float, yielded: bool, *, bound: str = "≤ ") -> str:
+    """A ductility factor as text; ``bound`` (``≤ ``) marks the upper bound of a spring that
+    never yielded (e.g. ``≤ 1.00``): it did not yield, its DF is not "at yield".
+
+    ``bound="<="`` gives ASCII (marker text, which some displays cannot draw otherwise).
+    """
     if not np.isfinite(df):
         return "n/a"
-    return f"{df:.2f}" if yielded else f"<={df:.2f}"
+    return f"{df:.2f}" if yielded else f"{bound}{df:.2f}"
 
 
 def format_interval(lo: float | None, hi: float | None, fmt: str = ".2f") -> str:

@@ -3,13 +3,13 @@
 :func:`compare_results` gives per section the change of ``k1`` (%), the ductility factor and
 the state before and after, and a plain-language line such as
 ``section 1 (0.0-2.0 m): k1 -15.2 %, DF 1.65 -> 4.44, suspicious -> damaged``.  A spring that
-never yielded has only an upper bound of its DF (about 1): it is written ``<=1.00``.
+never yielded has only an upper bound of its DF (about 1): it is written ``≤ 1.00``.
 
 For ensemble identifications the change has its 90 % interval, and the state after is
 decided with B's baseline being A (:meth:`IdentificationResult.with_baseline`): a ``k1`` loss
 beyond the two identifications' scatter makes the section at least suspicious, with the
 reason at the end of its line, e.g. ``section 2 (2.0-4.0 m): k1 -14.1 % [-16.0, -12.2],
-DF <=1.00 -> <=1.00, intact -> suspicious (worse): k1 -14.1 % [-16.0, -12.2] against event
+DF ≤ 1.00 -> ≤ 1.00, intact -> suspicious (worse): k1 -14.1 % [-16.0, -12.2] against event
 run1, beyond the identification scatter (1.1 %): cracking``.
 :func:`write_comparison` writes the comparison as JSON and the two events' profiles as one
 figure (the paper's Fig. 18).
@@ -17,7 +17,6 @@ figure (the paper's Fig. 18).
 
 from __future__ import annotations
 
-import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +24,7 @@ from typing import Any
 from pier_monitor.core.identify.damage import DamageState, IdentificationResult, SectionResult
 from pier_monitor.core.identify.states import is_diagnosis
 from pier_monitor.core.errors import ReportError
+from pier_monitor.core.fileio import to_strict_json
 
 from ._common import (atomic_write_text, check_same_pier, engineering_scale, ensure_dir,
                       format_df, format_interval)
@@ -90,7 +90,7 @@ class SectionChange:
         """One line of plain language.
 
         E.g. ``section 1 (0.0-2.0 m): k1 -15.2 %, DF 1.65 -> 4.44, suspicious -> damaged``;
-        ``<=`` before a DF marks the upper bound of a spring that did not yield, and
+        ``≤`` before a DF marks the upper bound of a spring that did not yield, and
         ``(worse)`` ends the line when the state got worse.  With uncertainty the ``k1``
         change has its 90 % interval, and the reasons of a promoted state follow a colon.
         """
@@ -146,7 +146,7 @@ class Comparison:
         """The headline, then one line per section, bottom to top."""
         lines = [self.headline(), *self.unreliable] + [s.summary() for s in self.sections]
         if any(s.df_before_bound or s.df_after_bound for s in self.sections):
-            lines.append("<=: the spring did not yield; its DF is only an upper bound and its "
+            lines.append("≤: the spring did not yield; its DF is only an upper bound and its "
                          "k2, fy are not identifiable")
         return lines
 
@@ -272,7 +272,7 @@ def write_comparison(a: IdentificationResult, b: IdentificationResult, out_dir: 
     doc = comparison.to_dict()
     if sources is not None:
         doc["sources"] = {"A": str(sources[0]), "B": str(sources[1])}
-    atomic_write_text(paths.compare_json, json.dumps(doc, indent=2, allow_nan=True) + "\n")
+    atomic_write_text(paths.compare_json, to_strict_json(doc, indent=2) + "\n")
     plot_profile([a, b], [f"A: {a.event_id}", f"B: {b.event_id}"], paths.profile_png)
     return comparison, paths
 

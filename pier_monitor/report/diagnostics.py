@@ -7,22 +7,34 @@ identifier's (OK; WARN with the reasons when the result is unreliable; ERROR whe
 identification failed).  :func:`diagnostics_fields` maps the fields of a damage state
 (:func:`~pier_monitor.report.results.damage_state_fields`) to those of a
 ``diagnostic_msgs/DiagnosticArray``, levels as integers.
+
+Two rules of what an operator reads:
+
+* the DF of a spring that did not yield is only an upper bound: it reads ``≤ 1`` (the bound,
+  usually 1) and ``ductility_factor_upper_bound`` is ``true``;
+* ``k1_change_pct`` is only a change between two identified events; the first event of a pier
+  has none (``n/a``) and its difference from the design values has its own key,
+  ``k1_vs_design_pct``, which is never a basis of the level (a design value is no
+  measurement).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 from pier_monitor.core.identify.damage import DamageState
 from pier_monitor.core.ingest.recording import ns_to_stamp
 
-__all__ = ["DIAGNOSTICS_TOPIC", "DIAGNOSTIC_ARRAY_TYPE", "DIAGNOSTIC_LEVELS",
-           "diagnostics_fields"]
+__all__ = ["DIAGNOSTICS_TOPIC", "DIAGNOSTIC_ARRAY_TYPE", "DIAGNOSTIC_LEVELS", "LEVEL_OK",
+           "LEVEL_WARN", "LEVEL_ERROR", "LEVEL_STALE", "diagnostics_fields", "ingest_silence"]
 
 #: Topic and type of the diagnostics.
 DIAGNOSTICS_TOPIC = "/diagnostics"
 DIAGNOSTIC_ARRAY_TYPE = "diagnostic_msgs/msg/DiagnosticArray"
+#: ``DiagnosticStatus`` levels.
+LEVEL_OK, LEVEL_WARN, LEVEL_ERROR, LEVEL_STALE = 0, 1, 2, 3
 #: ``DiagnosticStatus`` level (OK 0, WARN 1, ERROR 2, STALE 3) of each section state.
 DIAGNOSTIC_LEVELS = {DamageState.INTACT: 0, DamageState.SUSPICIOUS: 1, DamageState.DAMAGED: 2,
                      DamageState.UNKNOWN: 3, DamageState.UNRELIABLE: 1}
@@ -40,20 +52,48 @@ def _has_uncertainty(section: dict[str, Any]) -> bool:
     return math.isfinite(section["p_yielded"])
 
 
-def _section_message(fields: dict[str, Any], s: dict[str, Any], state: str) -> str:
+def _df_bound(s: dict[str, Any]) -> bool:
+    """The section's DF is only an upper bound: its spring did not yield."""
+    return not s["k2_identifiable"] and math.isfinite(s["ductility_factor"])
+
+
+def _df_text(s: dict[str, Any]) -> str:
+    """The DF as text: ``≤ 1`` for the upper bound of a spring that did not yield."""
+    text = _fmt(s["ductility_factor"])
+    return f"≤ {text}" if _df_bound(s) else text
+
+
+def _has_change(s: dict[str, Any]) -> bool:
+    return math.isfinite(s["k1_change_pct"])
+
+
+def _k1_text(s: dict[str, Any], vs_design: float | None, interval: bool) -> str:
+    """``k1 change -5.2 % [..]`` against an earlier event, else the difference from the design
+    values, named as such."""
+    if _has_change(s):
+        text = f"k1 change {_fmt(s['k1_change_pct'])} %"
+        if interval:
+            text += f" {_interval(s['k1_change_lo_pct'], s['k1_change_hi_pct'])}"
+        return text
+    if vs_design is None or not math.isfinite(vs_design):
+        return "no k1 change (no earlier event)"
+    return f"no k1 change (no earlier event), k1 vs design {vs_design:+.1f} %"
+
+
+def _section_message(fields: dict[str, Any], s: dict[str, Any], state: str,
+                     vs_design: float | None) -> str:
     if not fields["success"]:
         return f"no diagnosis: {fields['message']}"[:500]
     if state == "unreliable":
         return (f"unreliable, no diagnosis: {'; '.join(s['reasons'])} (DF "
-                f"{_fmt(s['ductility_factor'])}, event {fields['event_id']})")[:500]
+                f"{_df_text(s)}, event {fields['event_id']})")[:500]
     if not _has_uncertainty(s):
-        return (f"{state}: DF {_fmt(s['ductility_factor'])}, k1 change "
-                f"{_fmt(s['k1_change_pct'])} % (event {fields['event_id']})")
+        return (f"{state}: DF {_df_text(s)}, {_k1_text(s, vs_design, False)} "
+                f"(event {fields['event_id']})")
     p_state = s[f"p_{state}"] if state in ("intact", "suspicious", "damaged") else math.nan
-    text = (f"{state} (P {p_state:.2f}): DF {_fmt(s['ductility_factor'])} "
-            f"{_interval(s['ductility_factor_lo'], s['ductility_factor_hi'])}, k1 change "
-            f"{_fmt(s['k1_change_pct'])} % "
-            f"{_interval(s['k1_change_lo_pct'], s['k1_change_hi_pct'])} "
+    text = (f"{state} (P {p_state:.2f}): DF {_df_text(s)} "
+            f"{_interval(s['ductility_factor_lo'], s['ductility_factor_hi'])}, "
+            f"{_k1_text(s, vs_design, True)} "
             f"(event {fields['event_id']}, {fields['members']} members)")
     if s["reasons"]:
         text += "; " + "; ".join(s["reasons"])
@@ -64,9 +104,11 @@ def _uncertainty_values(s: dict[str, Any]) -> list[tuple[str, str]]:
     """Key-values of a section's uncertainty (none for a single identification)."""
     if not _has_uncertainty(s):
         return []
+    change = [("k1_change_90pct", _interval(s["k1_change_lo_pct"], s["k1_change_hi_pct"])),
+              ("k1_change_scatter_pct", _fmt(s["k1_change_scatter_pct"]))] \
+        if _has_change(s) else []
     return [("k1_std", _fmt(s["k1_std"])), ("k1_90pct", _interval(s["k1_lo"], s["k1_hi"])),
-            ("k1_change_90pct", _interval(s["k1_change_lo_pct"], s["k1_change_hi_pct"])),
-            ("k1_change_scatter_pct", _fmt(s["k1_change_scatter_pct"])),
+            *change,
             ("ductility_factor_90pct",
              _interval(s["ductility_factor_lo"], s["ductility_factor_hi"])),
             ("p_yielded", _fmt(s["p_yielded"])), ("p_intact", _fmt(s["p_intact"])),
@@ -74,15 +116,20 @@ def _uncertainty_values(s: dict[str, Any]) -> list[tuple[str, str]]:
             ("reasons", "; ".join(s["reasons"]))]
 
 
-def diagnostics_fields(fields: dict[str, Any], stamp_ns: int) -> dict[str, Any]:
+def diagnostics_fields(fields: dict[str, Any], stamp_ns: int, *,
+                       k1_vs_design_pct: Sequence[float | None] = ()) -> dict[str, Any]:
     """The fields of the ``DiagnosticArray`` of a damage state.
 
-    A section's status has the values k1, its change from the baseline, DF, k2, fy and c; a
+    A section's status has the values k1, ``k1_change_pct`` (its change from an earlier
+    event; ``n/a`` for the first event of a pier), ``k1_vs_design_pct`` (the difference from
+    the design values, when given; never a basis of the level), DF (``≤ 1`` for a spring that
+    did not yield), ``ductility_factor_upper_bound`` (``true`` / ``false``), k2, fy and c; a
     section identified by an ensemble also ``k1_std``, the 90 % intervals ``k1_90pct``,
-    ``k1_change_90pct`` and ``ductility_factor_90pct`` (``[lo, hi]``),
-    ``k1_change_scatter_pct``, ``p_yielded``, ``p_intact``, ``p_suspicious``, ``p_damaged``
-    and ``reasons`` (``; ``-separated, empty when the state is the most probable one).  The
-    identifier's status has the event, epochs, device and number of members.
+    ``k1_change_90pct`` (with a change only) and ``ductility_factor_90pct`` (``[lo, hi]``),
+    ``k1_change_scatter_pct`` (with a change only), ``p_yielded``, ``p_intact``,
+    ``p_suspicious``, ``p_damaged`` and ``reasons`` (``; ``-separated, empty when the state
+    is the most probable one).  The identifier's status has the event, epochs, device and
+    number of members.
 
     Parameters
     ----------
@@ -90,6 +137,9 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int) -> dict[str, Any]:
         :func:`~pier_monitor.report.results.damage_state_fields` of the result.
     stamp_ns : int
         ``header.stamp``, ns since the Unix epoch.
+    k1_vs_design_pct : sequence of float or None, optional
+        Per section, ``k1``'s difference from the design values, % (the result's
+        ``SectionResult.k1_vs_design_pct``); none given: the key is left out.
 
     Returns
     -------
@@ -100,13 +150,18 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int) -> dict[str, Any]:
     sec, nanosec = ns_to_stamp(stamp_ns)
     pier = fields["pier_id"]
     status = []
-    for s in fields["sections"]:
+    vs_design = list(k1_vs_design_pct)
+    for i, s in enumerate(fields["sections"]):
         state = DamageState(s["state"]).name.lower()
-        message = _section_message(fields, s, state)
+        design = vs_design[i] if i < len(vs_design) else None
+        message = _section_message(fields, s, state, design)
         values = (("event_id", fields["event_id"]), ("state", state),
                   ("z_bottom_m", _fmt(s["z_bottom_m"])), ("z_top_m", _fmt(s["z_top_m"])),
-                  ("k1", _fmt(s["k1"])), ("k1_change_pct", _fmt(s["k1_change_pct"])),
-                  ("ductility_factor", _fmt(s["ductility_factor"])),
+                  ("k1", _fmt(s["k1"])),
+                  ("k1_change_pct", _fmt(s["k1_change_pct"]) if _has_change(s) else "n/a"),
+                  *((("k1_vs_design_pct", _fmt(design)),) if vs_design else ()),
+                  ("ductility_factor", _df_text(s)),
+                  ("ductility_factor_upper_bound", "true" if _df_bound(s) else "false"),
                   ("k2", _fmt(s["k2"]) if s["k2_identifiable"] else "not identifiable"),
                   ("fy", _fmt(s["fy"]) if s["fy_identifiable"] else "not identifiable"),
                   ("c", _fmt(s["c"])), *_uncertainty_values(s))
@@ -124,3 +179,41 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int) -> dict[str, Any]:
                               {"key": "members", "value": str(fields["members"])}]})
     return {"header": {"stamp": {"sec": sec, "nanosec": nanosec}, "frame_id": ""},
             "status": status}
+
+
+def ingest_silence(channels: int, ages_s: Sequence[float], alive_timeout_s: float,
+                   stale_timeout_s: float) -> tuple[int, str] | None:
+    """Level and message of an ingest whose every channel is silent; None while one is alive.
+
+    A channel is alive while its last message is at most ``alive_timeout_s`` old.  With no
+    channel alive the ingest is WARN; once the newest message of all is older than
+    ``stale_timeout_s`` it is STALE: its status says nothing of the pier any more.  Before
+    any message arrived it is WARN (waiting for data, nothing to be stale).
+
+    Parameters
+    ----------
+    channels : int
+        Sensors of the map (0: no configuration yet; None is returned).
+    ages_s : sequence of float
+        Age of the last message of each sensor that has sent one, s.
+    alive_timeout_s, stale_timeout_s : float
+        s.
+
+    Returns
+    -------
+    (level, message) or None
+        ``LEVEL_WARN`` or ``LEVEL_STALE`` and a message naming how long the data have been
+        silent; None when at least one channel is alive (or there are no channels).
+    """
+    if channels <= 0:
+        return None
+    ages = [float(a) for a in ages_s]
+    if any(a <= alive_timeout_s for a in ages):
+        return None
+    if not ages:
+        return LEVEL_WARN, f"no data yet: none of the {channels} channels has sent a message"
+    silent_s = min(ages)
+    text = f"every channel silent for {silent_s:.1f} s (0 of {channels} channels alive)"
+    if silent_s > stale_timeout_s:
+        return LEVEL_STALE, f"stale: {text}"
+    return LEVEL_WARN, text

@@ -305,7 +305,7 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         if len(results) <= 2:  # DF values as numbers, right of the section's markers
             for j, r in enumerate(results):
                 for i, s in enumerate(r.sections):
-                    ax_df.annotate(format_df(s.ductility_factor, s.yielded).replace("<=", "≤"),
+                    ax_df.annotate(format_df(s.ductility_factor, s.yielded),
                                    (float(np.nanmax(df_ext[:, i])), zj[j][i]), xytext=(8, 0),
                                    textcoords="offset points", fontsize=8.5,
                                    color=line_colors[j], va="center",

@@ -19,7 +19,6 @@ a pier's previous reliable event, the change of each section's ``k1`` against it
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +28,7 @@ import numpy as np
 from matplotlib.patches import Patch, Rectangle
 
 from pier_monitor.core.identify.damage import IdentificationResult, k1_change_pct
+from pier_monitor.core.fileio import to_strict_json
 
 from ._common import STATE_COLORS, atomic_write_text, ensure_dir, format_df
 from .figures import _figure, _save, _style
@@ -103,7 +103,9 @@ class PierRow:
             "sections": [{"index": s.index, "z_bottom_m": s.z_bottom_m, "z_top_m": s.z_top_m,
                           "state": s.state, "ductility_factor": None if not math.isfinite(
                               s.ductility_factor) else s.ductility_factor,
-                          "yielded": s.yielded, "k1": None if not math.isfinite(s.k1) else s.k1}
+                          "yielded": s.yielded,
+                          "ductility_factor_upper_bound": s.ductility_factor_upper_bound,
+                          "k1": None if not math.isfinite(s.k1) else s.k1}
                          for s in r.sections],
         }
 
@@ -243,5 +245,5 @@ def write_fleet_summary(summary: FleetSummary, out_dir: str | Path, *,
         write_damage_states_mcap([r.result for r in summary.rows], paths.fleet_state_mcap)
     plot_fleet(summary, paths.fleet_png)
     doc = {**summary.to_dict(), "run": run or {}}
-    atomic_write_text(paths.fleet_json, json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    atomic_write_text(paths.fleet_json, to_strict_json(doc, indent=1) + "\n")
     return paths

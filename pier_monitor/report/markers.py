@@ -19,6 +19,14 @@ the foundation, m):
 Markers of section ``n`` have id ``n`` (0-based) in their namespace.  The identifier node
 publishes them on ``damage_markers`` (latched) and the results mcap carries them on
 ``/<pier>/damage_markers``.
+
+The pier's frame resolves through a static transform from a parent frame (``map`` by
+default; the identifier's ``parent_frame`` parameter) to ``<pier>``, identity: the pier's
+foundation at the parent's origin (:func:`pier_transform_fields`, a ``tf2_msgs/TFMessage``
+on ``/tf_static``, latched).  The results mcap carries it, and the identifier node publishes
+it where ``tf2_msgs`` is installed (a ROS 2 installation; the PyPI wheels of the project's
+environment have none: there the node logs that the markers are in frame ``<pier>``, which a
+display resolves when it is the display's fixed frame).
 """
 
 from __future__ import annotations
@@ -30,8 +38,9 @@ from pier_monitor.core.identify.damage import DamageState
 
 from ._common import STATE_COLORS, format_df
 
-__all__ = ["MARKER_ARRAY_TYPE", "MARKER_CYLINDER", "MARKER_DELETEALL", "MARKER_TEXT",
-           "damage_markers_fields", "damage_markers_topic", "section_label", "state_rgba"]
+__all__ = ["DEFAULT_PARENT_FRAME", "MARKER_ARRAY_TYPE", "MARKER_CYLINDER", "MARKER_DELETEALL",
+           "MARKER_TEXT", "TF_MESSAGE_TYPE", "TF_STATIC_TOPIC", "damage_markers_fields",
+           "damage_markers_topic", "pier_transform_fields", "section_label", "state_rgba"]
 
 #: Message type of the markers.
 MARKER_ARRAY_TYPE = "visualization_msgs/msg/MarkerArray"
@@ -40,6 +49,10 @@ MARKER_CYLINDER = 3
 MARKER_TEXT = 9
 MARKER_ADD = 0
 MARKER_DELETEALL = 3
+#: The static transforms: topic, type and the default parent of the pier frames.
+TF_STATIC_TOPIC = "/tf_static"
+TF_MESSAGE_TYPE = "tf2_msgs/msg/TFMessage"
+DEFAULT_PARENT_FRAME = "map"
 _DIAMETER_SHARE = 0.25  # cylinder diameter / pier height
 _GAP_SHARE = 0.04  # gap between two cylinders / section height
 _TEXT_SHARE = 0.05  # text height / pier height
@@ -75,7 +88,7 @@ def section_label(section: dict[str, Any]) -> str:
         return f"{head}: no diagnosis (DF {section['ductility_factor']:.2f})"
     change = section["k1_change_pct"]
     k1 = "k1 n/a" if change is None or not math.isfinite(change) else f"k1 {change:+.1f} %"
-    return f"{head} DF {format_df(section['ductility_factor'], section['k2_identifiable'])} {k1}"
+    return f"{head} DF {format_df(section['ductility_factor'], section['k2_identifiable'], bound='<=')} {k1}"
 
 
 def _marker(header: dict[str, Any], ns: str, index: int, kind: int, xyz: tuple[float, ...],
@@ -122,3 +135,40 @@ def damage_markers_fields(fields: dict[str, Any]) -> dict[str, Any]:
     markers.append(_marker(header, "pier", 0, MARKER_TEXT, (0.0, 0.0, height + 2 * text_h),
                            (0.0, 0.0, 1.4 * text_h), state_rgba(overall), title))
     return {"markers": markers}
+
+
+def pier_transform_fields(pier_ids: list[str] | tuple[str, ...], stamp: dict[str, int], *,
+                          parent_frame: str = DEFAULT_PARENT_FRAME) -> dict[str, Any]:
+    """The ``TFMessage`` of the static transforms ``parent_frame`` → ``<pier>``, as plain fields.
+
+    Identity transforms (the pier's foundation at the parent's origin, z up), one per pier
+    in ``pier_ids``: a latched ``/tf_static`` publisher keeps only its last message, so that
+    message holds every pier's transform.
+
+    Parameters
+    ----------
+    pier_ids : sequence of str
+        The pier frames (the markers' ``frame_id``).
+    stamp : dict
+        ``{"sec", "nanosec"}`` of the transforms.
+    parent_frame : str
+        The frame they hang from (default ``map``).
+
+    Returns
+    -------
+    dict
+        ``{"transforms": [...]}``, each a ``geometry_msgs/TransformStamped`` as nested dicts.
+
+    Raises
+    ------
+    ValueError
+        If ``parent_frame`` is empty or equals a pier id (a frame cannot be its own parent).
+    """
+    if not parent_frame or parent_frame in pier_ids:
+        raise ValueError(f"parent_frame: expected a frame other than the piers' "
+                         f"{list(pier_ids)}, got {parent_frame!r}")
+    return {"transforms": [
+        {"header": {"stamp": dict(stamp), "frame_id": parent_frame}, "child_frame_id": pier,
+         "transform": {"translation": {"x": 0.0, "y": 0.0, "z": 0.0},
+                       "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+        for pier in pier_ids]}

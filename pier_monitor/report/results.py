@@ -5,7 +5,8 @@
 * ``damage_state.mcap`` — one ``pier_monitor_msgs/msg/PierDamageState`` on
   ``/<pier_id>/damage_state`` (``ros2`` profile, CDR, offered latched), what the identifier
   node publishes, with the pier's ``visualization_msgs/MarkerArray`` on
-  ``/<pier_id>/damage_markers`` and its ``/diagnostics``; readable by the standard mcap
+  ``/<pier_id>/damage_markers``, the static transform ``map`` → ``<pier_id>`` of the markers'
+  frame on ``/tf_static`` and its ``/diagnostics``; readable by the standard mcap
   tools, ``mcap-ros2-support`` and Foxglove (``config/foxglove_layout.json``);
 * ``profile.png``, ``hysteresis.png``, ``responses.png``, ``training.png`` (see
   :mod:`~pier_monitor.report.figures`), unless figures are turned off;
@@ -45,7 +46,8 @@ from ._common import check_same_pier, ensure_dir
 from .diagnostics import DIAGNOSTIC_ARRAY_TYPE, DIAGNOSTICS_TOPIC, diagnostics_fields
 from .figures import (RunLike, check_members_match, check_window_matches, plot_hysteresis,
                       plot_profile, plot_responses, plot_training)
-from .markers import MARKER_ARRAY_TYPE, damage_markers_fields, damage_markers_topic
+from .markers import (MARKER_ARRAY_TYPE, TF_MESSAGE_TYPE, TF_STATIC_TOPIC, damage_markers_fields,
+                      damage_markers_topic, pier_transform_fields)
 
 __all__ = [
     "DAMAGE_STATE_TYPE",
@@ -55,6 +57,7 @@ __all__ = [
     "damage_state_fields",
     "damage_state_message",
     "damage_state_topic",
+    "k1_vs_design",
     "load_result",
     "prepare_result",
     "write_damage_state_mcap",
@@ -183,6 +186,15 @@ def damage_state_fields(result: IdentificationResult, *, stamp_ns: int | None = 
     }
 
 
+def k1_vs_design(result: IdentificationResult) -> list[float | None]:
+    """Per section, ``k1``'s difference from the design values, % (None where not known).
+
+    The damage-state message has no field for it; the diagnostics show it beside the ``k1``
+    change (:func:`~pier_monitor.report.diagnostics.diagnostics_fields`).
+    """
+    return [s.k1_vs_design_pct for s in result.sections]
+
+
 def _nan_if_none(value: float | None) -> float:
     return float("nan") if value is None else float(value)
 
@@ -233,9 +245,10 @@ def write_damage_states_mcap(results: Sequence[IdentificationResult], path: str 
                              stamp_ns: int | None = None) -> Path:
     """Write the damage states of one or more piers as an mcap file (replacing ``path``).
 
-    Per result: its ``PierDamageState`` on :func:`damage_state_topic` and its
-    ``MarkerArray`` on :func:`~pier_monitor.report.markers.damage_markers_topic` (both
-    offered latched), and its ``DiagnosticArray`` on ``/diagnostics``, all logged at the
+    Per result: its ``PierDamageState`` on :func:`damage_state_topic`, its
+    ``MarkerArray`` on :func:`~pier_monitor.report.markers.damage_markers_topic` and the
+    static transform of its frame (``map`` → ``<pier>``) on ``/tf_static`` (all offered
+    latched), and its ``DiagnosticArray`` on ``/diagnostics``, all logged at the
     message's ``header.stamp``.
 
     Raises
@@ -255,8 +268,12 @@ def write_damage_states_mcap(results: Sequence[IdentificationResult], path: str 
                 (damage_state_topic(result.pier_id), DAMAGE_STATE_TYPE, True, msg),
                 (damage_markers_topic(result.pier_id), MARKER_ARRAY_TYPE, True,
                  message_from_fields(MARKER_ARRAY_TYPE, damage_markers_fields(fields))),
+                (TF_STATIC_TOPIC, TF_MESSAGE_TYPE, True, message_from_fields(
+                    TF_MESSAGE_TYPE, pier_transform_fields([result.pier_id],
+                                                           fields["header"]["stamp"]))),
                 (DIAGNOSTICS_TOPIC, DIAGNOSTIC_ARRAY_TYPE, False,
-                 message_from_fields(DIAGNOSTIC_ARRAY_TYPE, diagnostics_fields(fields, log_ns)))):
+                 message_from_fields(DIAGNOSTIC_ARRAY_TYPE, diagnostics_fields(
+                     fields, log_ns, k1_vs_design_pct=k1_vs_design(result))))):
             if (topic, typename, latched) not in connections:
                 connections.append((topic, typename, latched))
             cdr = bytes(typestore.serialize_cdr(message, typename))
@@ -279,11 +296,14 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
 
     ``check_reasons`` (from :func:`~pier_monitor.core.identify.checks.check_identification`)
     make the result unreliable (:meth:`IdentificationResult.with_check_reasons`), whatever
-    the baseline.  ``k1_change_pct`` is recomputed against ``baseline``: the window's design values when
-    ``None``, an earlier result of the same pier (its ``k1`` and, for an ensemble, its ``k1``
+    the baseline.  ``k1_change_pct`` is recomputed against ``baseline``: none when ``None``
+    (the first event of a pier has no change, :meth:`IdentificationResult.without_k1_baseline`),
+    an earlier result of the same pier (its ``k1`` and, for an ensemble, its ``k1``
     spread: a loss beyond the scatter is cracking, see
     :meth:`IdentificationResult.with_baseline`), or an array (N,) in N·m/rad.  The sections'
-    states are decided again against it.
+    states are decided again against it.  Every section also gets ``k1_vs_design_pct``, its
+    difference from the window's design values (:meth:`IdentificationResult.with_design_k1`),
+    which never decides a state.
 
     Raises
     ------
@@ -298,7 +318,7 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
     result = replace(run.result, findings=findings, partial=partial
                      ).with_check_reasons(check_reasons)
     if baseline is None:
-        result = result.with_k1_baseline(window.design.k1, "design values")
+        result = result.without_k1_baseline()
     elif isinstance(baseline, IdentificationResult):
         check_same_pier([baseline, result], [f"baseline {baseline.event_id!r}",
                                              f"result {result.event_id!r}"])
@@ -310,6 +330,7 @@ def prepare_result(run: RunLike, window: MeasuredWindow, *,
             raise ReportError(f"baseline k1: expected {len(result.sections)} finite positive "
                               f"values in N·m/rad, got {base_k1.tolist()}")
         result = result.with_k1_baseline(base_k1, "given baseline")
+    result = result.with_design_k1(window.design.k1)
     return replace(result, window_start_ns=int(window.start_time_ns), software_version=version)
 
 

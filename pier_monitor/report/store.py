@@ -18,7 +18,8 @@ The baseline rule (the reference of ``k1_change_pct``), the same for a bag ident
 offline and for the live identifier: the **earliest reliable result of the same pier whose
 window started before this one** (a successful identification that passed its self-check;
 an unreliable result is never a baseline).  For the first event of a pier there is none, and
-changes are relative to the design values.  Identifying a bag into an empty directory therefore
+it has no ``k1`` change (its difference from the design values is ``k1_vs_design_pct``, never
+a change).  Identifying a bag into an empty directory therefore
 compares every later event with the bag's first one; a store that already holds an earlier
 event of the pier makes that one the baseline.
 """

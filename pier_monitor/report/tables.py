@@ -36,7 +36,9 @@ def uncertainty_table(result: IdentificationResult) -> str:
 
     Empty for a result without uncertainty (a single identification).  ``k2`` and ``fy`` are
     over the members whose spring yielded (``n/a`` when none did); the change of ``k1`` is
-    against the result's baseline.
+    against an earlier event (``-`` for the first event of a pier), ``vs design`` the
+    difference from the design values (not a change); ``≤`` marks the DF of a spring that
+    did not yield (an upper bound).
     """
     sections = [s for s in result.sections if s.uncertainty is not None]
     if not sections:
@@ -50,7 +52,7 @@ def uncertainty_table(result: IdentificationResult) -> str:
     width = 22
     head = (f"{'section':>7}  " + "  ".join(f"{title:<{width}}" for title, _ in cols)
             + f"  {'DF':<18} {'P(yielded)':>10}  {'P(intact/susp./dam.)':<20}  "
-            + "k1 change % [90 %]")
+            + f"{'k1 change % [90 %]':<20}  vs design %")
     rows = [f"uncertainty over {result.members} members: mean [90 % interval, 5th-95th "
             "percentile of the members]", head, "-" * len(head)]
     for s in sections:
@@ -58,11 +60,13 @@ def uncertainty_table(result: IdentificationResult) -> str:
         cells = "  ".join(f"{_cell(getattr(u, name), scales[name][0], '.3f'):<{width}}"
                           for _, name in cols)
         p = " / ".join(f"{v:.2f}" for v in u.p_state)
-        change = "" if s.k1_change_pct is None else (
+        change = "-" if s.k1_change_pct is None else (
             f"{s.k1_change_pct:+.1f} "
             f"{format_interval(s.k1_change_lo_pct, s.k1_change_hi_pct, '+.1f')}")
-        rows.append(f"{s.index + 1:>7}  {cells}  {_cell(u.ductility_factor, 1.0, '.2f'):<18} "
-                    f"{u.p_yielded:>10.2f}  {p:<20}  {change}")
+        design = "" if s.k1_vs_design_pct is None else f"{s.k1_vs_design_pct:+.1f}"
+        df = ("" if s.yielded else "≤ ") + _cell(u.ductility_factor, 1.0, '.2f')
+        rows.append(f"{s.index + 1:>7}  {cells}  {df:<18} "
+                    f"{u.p_yielded:>10.2f}  {p:<20}  {change:<20}  {design}")
     rows += [f"section {s.index + 1}: {s.state}: {reason}" for s in sections
              for reason in s.reasons]
     return "\n".join(rows)

@@ -213,5 +213,5 @@ def test_diagnostics_of_a_single_identification_have_no_uncertainty_values() -> 
     section = arr.status[0]
     assert [kv.key for kv in section.values] == [
         "event_id", "state", "z_bottom_m", "z_top_m", "k1", "k1_change_pct",
-        "ductility_factor", "k2", "fy", "c"]
+        "ductility_factor", "ductility_factor_upper_bound", "k2", "fy", "c"]
     assert section.message == "suspicious: DF 1.3, k1 change -9.09091 % (event run1)"

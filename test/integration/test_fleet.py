@@ -60,10 +60,12 @@ def assert_same_results(got: dict[str, IdentificationResult],
         g = got[event_id]
         assert g.success and g.epochs == w.epochs and g.k1_baseline == w.k1_baseline, event_id
         assert [s.state for s in g.sections] == [s.state for s in w.sections]
-        for key in ("k1", "k2", "fy", "c", "ductility_factor", "k1_change_pct"):
-            np.testing.assert_allclose([getattr(s, key) for s in g.sections],
-                                       [getattr(s, key) for s in w.sections], rtol=1e-9,
-                                       err_msg=f"{event_id} {key}")
+        for key in ("k1", "k2", "fy", "c", "ductility_factor", "k1_change_pct",
+                    "k1_vs_design_pct"):
+            # None: no change (a first event); equal as NaN
+            values = [[np.nan if getattr(s, key) is None else getattr(s, key)
+                       for s in r.sections] for r in (g, w)]
+            np.testing.assert_allclose(*values, rtol=1e-9, err_msg=f"{event_id} {key}")
 
 
 def stored(out: Path) -> dict[str, IdentificationResult]:

@@ -25,7 +25,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[2] / "pier_monitor"
 ROS = ("rclpy", "rcl_interfaces", "builtin_interfaces", "std_msgs", "sensor_msgs",
-       "diagnostic_msgs", "visualization_msgs", "pier_monitor_msgs")
+       "diagnostic_msgs", "visualization_msgs", "geometry_msgs", "tf2_msgs", "pier_monitor_msgs")
 BAGS = ("rosbags", "mcap", "mcap_ros2")
 TOP = ("pier_monitor.cli", "pier_monitor.pipeline", "pier_monitor.events", "pier_monitor.bench",
        "pier_monitor.progress")

@@ -11,6 +11,7 @@ from pathlib import Path
 import pier_monitor
 
 ROOT = Path(__file__).resolve().parents[2]
+LAUNCH_FILE = ROOT / "launch_files" / "pier_monitor.launch.py"
 read_setup_kwargs = runpy.run_path(str(ROOT / "scripts" / "link_data_files.py"))[
     "read_setup_kwargs"]
 
@@ -36,7 +37,7 @@ def test_setup_py_and_package_xml_describe_the_same_ament_python_package() -> No
     assert data["share/ament_index/resource_index/packages"] == ["resource/pier_monitor"]
     assert (ROOT / "resource" / "pier_monitor").is_file()
     assert data["share/pier_monitor"] == ["package.xml"]
-    assert data["share/pier_monitor/launch"] == ["launch/pier_monitor.launch.py"]
+    assert data["share/pier_monitor/launch"] == ["launch_files/pier_monitor.launch.py"]
     assert "pier_monitor_msgs" in {d.text for d in xml.findall("exec_depend")}
 
 
@@ -55,7 +56,7 @@ def test_node_executables_are_installed_where_ros2_run_looks() -> None:
 
 
 def test_the_launch_file_starts_the_declared_executables() -> None:
-    tree = ast.parse((ROOT / "launch" / "pier_monitor.launch.py").read_text())
+    tree = ast.parse(LAUNCH_FILE.read_text())
     assigned = {t.id: node.value for node in tree.body if isinstance(node, ast.Assign)
                 for t in node.targets if isinstance(t, ast.Name)}
     nodes = ast.literal_eval(assigned["NODES"])
@@ -64,3 +65,69 @@ def test_the_launch_file_starts_the_declared_executables() -> None:
         console_scripts())
     assert "generate_launch_description" in {n.name for n in tree.body
                                              if isinstance(n, ast.FunctionDef)}
+
+
+def test_no_folder_of_the_repository_shadows_the_launch_package() -> None:
+    # Python puts the working directory first on sys.path: a launch/ folder there would be
+    # imported instead of the launch package by everything started from the repository root
+    assert not (ROOT / "launch").exists() and not (ROOT / "launch_ros").exists()
+
+
+def test_the_launch_file_compiles() -> None:
+    compile(LAUNCH_FILE.read_text(encoding="utf-8"), str(LAUNCH_FILE), "exec")
+
+
+def test_the_launch_file_gives_a_launch_description_where_launch_ros_is_installed() -> None:
+    import importlib.util
+
+    import pytest
+
+    for name in ("launch", "launch_ros", "ament_index_python"):
+        if importlib.util.find_spec(name) is None:
+            pytest.skip(f"{name} is not installed (the ROS 2 PyPI wheels of this environment "
+                        "have no launch_ros); the launch file is checked by compiling it and "
+                        "reading its nodes")
+    import launch
+    import launch_ros.actions
+
+    namespace = runpy.run_path(str(LAUNCH_FILE))
+    description = namespace["generate_launch_description"]()
+    assert isinstance(description, launch.LaunchDescription)
+    nodes = [e for e in description.entities if isinstance(e, launch_ros.actions.Node)]
+    assert len(nodes) == len(namespace["NODES"]) == 2
+
+
+def test_launchers_in_lib_pier_monitor_are_what_ros2_run_finds_and_they_run(
+        tmp_path: Path, monkeypatch) -> None:
+    import os
+    import subprocess
+    import sys
+
+    from ament_index_python.packages import get_package_prefix
+
+    # a prefix as scripts/setup_env.sh leaves the venv: the ament index marker and the launchers
+    write_launchers = runpy.run_path(str(ROOT / "scripts" / "link_data_files.py"))[
+        "write_launchers"]
+    marker = tmp_path / "share" / "ament_index" / "resource_index" / "packages" / "pier_monitor"
+    marker.parent.mkdir(parents=True)
+    marker.touch()
+    (tmp_path / "lib" / "pier_monitor").mkdir(parents=True)
+    (tmp_path / "lib" / "pier_monitor" / "old_node").write_text(
+        "# written by scripts/link_data_files.py\n")  # a launcher no longer declared
+    written = write_launchers(ROOT / "setup.py", tmp_path, sys.executable)
+    assert sorted(p.name for p in written) == sorted(console_scripts())
+    assert sorted(p.name for p in (tmp_path / "lib" / "pier_monitor").iterdir()) == sorted(
+        console_scripts())
+    # what `ros2 run pier_monitor ingest` does: the package's prefix from the ament index,
+    # then an executable file of that name in <prefix>/lib/pier_monitor
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path))
+    prefix = Path(get_package_prefix("pier_monitor"))
+    assert prefix == tmp_path
+    executable = prefix / "lib" / "pier_monitor" / "ingest"
+    assert executable.is_file() and os.access(executable, os.X_OK)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    done = subprocess.run([str(executable), "--help"], capture_output=True, text=True,
+                          timeout=120, env=env, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("usage: ros2 run pier_monitor ingest [--ros-args")
+    assert "Ingest node: sensor topics" in done.stdout

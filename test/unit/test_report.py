@@ -84,13 +84,15 @@ def test_result_json_round_trips_into_identification_result(identified, written)
     window, run = identified
     paths = written.paths
     loaded = IdentificationResult.load_json(paths.result_json)
-    expected = replace(run.result.with_k1_baseline(window.design.k1, "design values"),
+    expected = replace(run.result.without_k1_baseline().with_design_k1(window.design.k1),
                        window_start_ns=START_NS, software_version=__version__)
     assert loaded == expected == written.result  # what write_results returns is what it saved
     assert loaded.to_dict() == json.loads(paths.result_json.read_text())
     assert loaded.settings == run.result.settings and loaded.history == run.result.history
-    # the paper case starts from half the true k1: the change against design is about +100 %
-    assert all(abs(s.k1_change_pct - 100.0) < 1.0 for s in loaded.sections)
+    # the paper case's design values are half the true k1: k1 is about +100 % against them,
+    # which is no change (a first event has none) and has its own key
+    assert all(abs(s.k1_vs_design_pct - 100.0) < 1.0 for s in loaded.sections)
+    assert all(s.k1_change_pct is None for s in loaded.sections) and loaded.k1_baseline == ""
     assert load_result(paths.out_dir) == loaded
 
 
@@ -113,7 +115,18 @@ def test_damage_state_mcap_decodes_with_mcap_ros2(identified, written) -> None:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         msgs = {channel.topic: (schema, channel, message, decoded)
                 for schema, channel, message, decoded in reader.iter_decoded_messages()}
-    assert sorted(msgs) == ["/diagnostics", "/table1/damage_markers", "/table1/damage_state"]
+    assert sorted(msgs) == ["/diagnostics", "/table1/damage_markers", "/table1/damage_state",
+                            "/tf_static"]
+    # the markers' frame resolves: map -> table1, identity, latched
+    schema, channel, message, tf = msgs["/tf_static"]
+    assert schema.name == "tf2_msgs/msg/TFMessage" and message.log_time == START_NS
+    assert "transient_local" in channel.metadata.get("offered_qos_profiles", "")
+    (t,) = tf.transforms
+    assert (t.header.frame_id, t.child_frame_id) == ("map", "table1")
+    assert (t.transform.translation.x, t.transform.translation.y,
+            t.transform.translation.z) == (0.0, 0.0, 0.0)
+    assert (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+            t.transform.rotation.w) == (0.0, 0.0, 0.0, 1.0)
     schema, channel, message, decoded = msgs[damage_state_topic("table1")]
     assert schema.name == "pier_monitor_msgs/msg/PierDamageState"
     assert message.log_time == START_NS
@@ -128,7 +141,7 @@ def test_damage_state_mcap_decodes_with_mcap_ros2(identified, written) -> None:
         assert (got.z_bottom_m, got.z_top_m) == (want.z_bottom_m, want.z_top_m)
         assert (got.k1, got.k2, got.fy, got.c) == (want.k1, want.k2, want.fy, want.c)
         assert got.ductility_factor == want.ductility_factor
-        assert got.k1_change_pct == want.k1_change_pct
+        assert math.isnan(got.k1_change_pct) and want.k1_change_pct is None  # first event
         assert got.state == int(want.damage_state)
         assert got.k2_identifiable == want.k2_identifiable == want.yielded
     assert [s.state for s in decoded.sections][:2] == [2, 2]
@@ -183,8 +196,8 @@ def test_compare_gives_sign_and_ranking_of_k1_changes() -> None:
     assert lines[2] == ("section 2 (2.0-4.0 m): k1 -5.0 %, DF 1.10 -> 1.25, "
                         "intact -> suspicious (worse)")
     # springs that did not yield: DF only bounded
-    assert lines[3] == "section 3 (4.0-6.0 m): k1 +2.5 %, DF <=0.90 -> <=0.95, intact -> intact"
-    assert lines[-1].startswith("<=: the spring did not yield")
+    assert lines[3] == "section 3 (4.0-6.0 m): k1 +2.5 %, DF ≤ 0.90 -> ≤ 0.95, intact -> intact"
+    assert lines[-1].startswith("≤: the spring did not yield")
     assert "k1 A (GN*m/rad)" in cmp.table()
 
 
@@ -376,8 +389,10 @@ def test_ensemble_result_json_round_trips_its_uncertainty(ensemble_written) -> N
     _, written = ensemble_written
     result = written.result
     assert result.members == ENSEMBLE_MEMBERS and sum(result.p_overall_state) == pytest.approx(1)
-    assert all(s.uncertainty is not None and s.k1_change_lo_pct < s.k1_change_pct
-               < s.k1_change_hi_pct for s in result.sections)
+    # a first event: no change and no change interval, its difference from design apart
+    assert all(s.uncertainty is not None and s.k1_change_pct is None
+               and s.k1_change_lo_pct is None and s.k1_vs_design_pct is not None
+               for s in result.sections)
     loaded = load_result(written.paths.out_dir)
     assert json.dumps(loaded.to_dict(), sort_keys=True) == json.dumps(result.to_dict(),
                                                                       sort_keys=True)
@@ -409,8 +424,8 @@ def test_ensemble_damage_state_decodes_from_the_mcap_with_only_the_msg_text(
                        for key in ("mean", "std", "lo", "hi")), name
         assert got.p_yielded == u.p_yielded
         assert (got.p_intact, got.p_suspicious, got.p_damaged) == u.p_state
-        assert (got.k1_change_lo_pct, got.k1_change_hi_pct, got.k1_change_scatter_pct) == (
-            want.k1_change_lo_pct, want.k1_change_hi_pct, want.k1_change_scatter_pct)
+        assert all(math.isnan(v) for v in (got.k1_change_lo_pct, got.k1_change_hi_pct,
+                                           got.k1_change_scatter_pct))  # no earlier event
         assert list(got.reasons) == list(want.reasons)
         assert got.state == int(want.damage_state)
 
@@ -476,7 +491,7 @@ def test_cli_compare_prints_k1_change_intervals_and_cracking(tmp_path: Path, cap
     s1, s2 = cmp.sections
     assert "90 % interval" in out
     assert (f"section 1 (0.0-2.0 m): k1 -14.0 % [{s1.k1_change_lo_pct:+.1f}, "
-            f"{s1.k1_change_hi_pct:+.1f}], DF <=0.80 -> <=0.80, intact -> suspicious (worse): "
+            f"{s1.k1_change_hi_pct:+.1f}], DF ≤ 0.80 -> ≤ 0.80, intact -> suspicious (worse): "
             f"k1 -14.0 % [{s1.k1_change_lo_pct:+.1f}, {s1.k1_change_hi_pct:+.1f}] against event "
             f"run1, beyond the identification scatter ({s1.k1_change_scatter_pct:.1f} %): "
             "cracking") in out
@@ -518,3 +533,75 @@ def test_identify_tables_print_intervals_and_state_probabilities(tmp_path: Path,
         for reason in s.reasons:
             assert f"section {s.index + 1}: {s.state}: {reason}" in out
     assert any(s.reasons for s in result.sections)
+
+
+def test_diagnostics_of_a_first_event_show_design_apart_and_an_unyielded_df_as_a_bound() -> None:
+    from pier_monitor.report.diagnostics import diagnostics_fields
+    from pier_monitor.report.results import k1_vs_design
+
+    # section 1 yielded (DF 1.3), section 2 did not (DF bound 1); design k1 1.66e9: k1 of
+    # 1e9 is -39.8 % against it, which is no change and no basis of the level
+    first = _result("p1", "run1", [1e9, 1e9], [1.3, 1.0]).with_design_k1(np.array([1.66e9] * 2))
+    assert [s.k1_vs_design_pct for s in first.sections] == pytest.approx([-39.759] * 2, abs=1e-3)
+    diag = diagnostics_fields(damage_state_fields(first), START_NS,
+                              k1_vs_design_pct=k1_vs_design(first))
+    s1, s2, _ = diag["status"]
+    v1 = {kv["key"]: kv["value"] for kv in s1["values"]}
+    v2 = {kv["key"]: kv["value"] for kv in s2["values"]}
+    assert (v1["ductility_factor"], v1["ductility_factor_upper_bound"]) == ("1.3", "false")
+    assert (v2["ductility_factor"], v2["ductility_factor_upper_bound"]) == ("≤ 1", "true")
+    assert v1["k1_change_pct"] == v2["k1_change_pct"] == "n/a"
+    assert v2["k1_vs_design_pct"] == "-39.759"
+    assert (s1["level"], s2["level"]) == (1, 0)  # suspicious by its DF, intact: not by design
+    assert s2["message"] == ("intact: DF ≤ 1, no k1 change (no earlier event), k1 vs design "
+                             "-39.8 % (event run1)")
+    # a later event: the change against the first one, the design values still apart
+    second = _result("p1", "run2", [0.9e9, 1e9], [1.3, 1.0]).with_design_k1(
+        np.array([1.66e9] * 2)).with_baseline(first)
+    diag = diagnostics_fields(damage_state_fields(second), START_NS,
+                              k1_vs_design_pct=k1_vs_design(second))
+    v1 = {kv["key"]: kv["value"] for kv in diag["status"][0]["values"]}
+    assert v1["k1_change_pct"] == "-10" and v1["k1_vs_design_pct"] == "-45.7831"
+    assert "k1 change -10 %" in diag["status"][0]["message"]
+
+
+def test_uncertainty_table_marks_the_df_bound_and_a_first_event_has_no_change() -> None:
+    k1 = normal_members(1e9, 0.01e9)
+    df = normal_members(0.8, 0.03)
+    no = np.zeros_like(df, dtype=bool)
+    first = ensemble_result("run1", [k1], [df], [no]).with_design_k1(np.array([1.25e9]))
+    from pier_monitor.report.tables import uncertainty_table
+
+    row = uncertainty_table(first).splitlines()[3]
+    assert "≤ 0.80 [" in row  # the members' DF of a spring that did not yield: a bound
+    assert row.split()[-2:] == ["-", "-20.0"]  # no k1 change; -20 % against design
+
+
+def test_ingest_goes_warn_then_stale_when_every_channel_is_silent() -> None:
+    from pier_monitor.report.diagnostics import LEVEL_STALE, LEVEL_WARN, ingest_silence
+
+    # one channel of three alive (1 s old): no silence status
+    assert ingest_silence(3, [1.0, 40.0, 50.0], alive_timeout_s=2.0, stale_timeout_s=30.0) is None
+    # every channel silent past the alive timeout: WARN, for the newest message's age
+    assert ingest_silence(3, [5.0, 40.0, 50.0], 2.0, 30.0) == (
+        LEVEL_WARN, "every channel silent for 5.0 s (0 of 3 channels alive)")
+    # past the stale timeout: STALE
+    level, message = ingest_silence(3, [31.0, 40.0, 50.0], 2.0, 30.0)
+    assert level == LEVEL_STALE and message.startswith("stale: every channel silent for 31.0 s")
+    # nothing received yet: WARN, waiting; no channels (no configuration): nothing to say
+    assert ingest_silence(2, [], 2.0, 30.0) == (
+        LEVEL_WARN, "no data yet: none of the 2 channels has sent a message")
+    assert ingest_silence(0, [], 2.0, 30.0) is None
+
+
+def test_pier_transforms_hang_every_pier_frame_from_the_parent() -> None:
+    from pier_monitor.report.markers import pier_transform_fields
+
+    fields = pier_transform_fields(["p1", "p2"], {"sec": 3, "nanosec": 4}, parent_frame="site")
+    assert [(t["header"]["frame_id"], t["child_frame_id"]) for t in fields["transforms"]] == [
+        ("site", "p1"), ("site", "p2")]
+    assert fields["transforms"][1]["header"]["stamp"] == {"sec": 3, "nanosec": 4}
+    assert fields["transforms"][0]["transform"]["rotation"]["w"] == 1.0
+    with pytest.raises(ValueError, match=r"parent_frame: expected a frame other than the "
+                                         r"piers' \['p1'\], got 'p1'"):
+        pier_transform_fields(["p1"], {"sec": 0, "nanosec": 0}, parent_frame="p1")

@@ -36,7 +36,7 @@ import numpy as np
 
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.fileio import atomic_path
+from pier_monitor.core.fileio import atomic_path, nan_if_none, to_strict_json
 from pier_monitor.core.ingest.window import MeasuredWindow
 
 from pier_monitor.core.ingest.settings import Finding
@@ -63,6 +63,10 @@ __all__ = [
     "failed_event_result",
     "k1_change_pct",
 ]
+
+#: The float fields of a section (``null`` in a result file is NaN).
+_SECTION_FLOATS = ("z_bottom_m", "z_top_m", "k1", "k2", "fy", "c", "yield_angle_rad",
+                   "max_angle_rad", "ductility_factor")
 
 #: A section is reported "not yielded" only while the probability that its spring yielded
 #: (the share of the ensemble's members) is below this.
@@ -185,9 +189,13 @@ class SectionResult:
     """Identified state of one section (spring ``index`` + 1 and its damper), SI units.
 
     ``k1_change_pct`` is the change of ``k1`` against the result's baseline (%, None without
-    one).  A section identified by an ensemble also has its ``uncertainty``, the 90 %
-    interval of that change (``k1_change_lo_pct``, ``k1_change_hi_pct``, %) with the
-    identification scatter it is judged against (``k1_change_scatter_pct``, percentage
+    one: the first event of a pier has no change).  ``k1_vs_design_pct`` is the difference of
+    ``k1`` from the design values (%, None when not known): no change and never a basis of a
+    state (:meth:`IdentificationResult.with_design_k1`).  ``ductility_factor_upper_bound``
+    (in :meth:`to_dict` too) says that the DF is only an upper bound.  A section identified
+    by an ensemble also has its ``uncertainty``, the 90 % interval of that change
+    (``k1_change_lo_pct``, ``k1_change_hi_pct``, %) with the identification scatter it is
+    judged against (``k1_change_scatter_pct``, percentage
     points), and the ``reasons`` for a state promoted above the most probable one
     (:func:`decide_state`); all None / empty for a single identification.
     """
@@ -212,6 +220,15 @@ class SectionResult:
     k1_change_hi_pct: float | None = None
     k1_change_scatter_pct: float | None = None
     reasons: tuple[str, ...] = ()
+    k1_vs_design_pct: float | None = None
+
+    @property
+    def ductility_factor_upper_bound(self) -> bool:
+        """Whether the DF is only an upper bound (about 1): the spring did not yield.
+
+        False where there is no DF (NaN: a failed identification).
+        """
+        return not self.yielded and math.isfinite(self.ductility_factor)
 
     @property
     def damage_state(self) -> DamageState:
@@ -265,12 +282,19 @@ class SectionResult:
         d = asdict(self)
         d["uncertainty"] = None if self.uncertainty is None else self.uncertainty.to_dict()
         d["reasons"] = list(self.reasons)
+        d["ductility_factor_upper_bound"] = self.ductility_factor_upper_bound
         return d
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SectionResult:
-        """Inverse of :meth:`to_dict`; a section written before uncertainty existed loads."""
+        """Inverse of :meth:`to_dict`; a section written before uncertainty existed loads.
+
+        A ``null`` number (strict JSON's form of NaN) is read as NaN.
+        """
         d = dict(d)
+        d.pop("ductility_factor_upper_bound", None)  # derived from ``yielded``
+        for name in _SECTION_FLOATS:
+            d[name] = nan_if_none(d[name])
         if d.get("uncertainty") is not None:
             d["uncertainty"] = SectionUncertainty.from_dict(d["uncertainty"])
         d["reasons"] = tuple(d.get("reasons", ()))
@@ -377,6 +401,29 @@ class IdentificationResult:
         overall = overall_state(sections) if self.success else self.overall_state
         return replace(self, sections=sections, k1_baseline=label, overall_state=overall)
 
+    def without_k1_baseline(self) -> IdentificationResult:
+        """A copy with no ``k1`` change (the first event of a pier: nothing to change from).
+
+        The sections' changes and change intervals become None and ``k1_baseline`` empty;
+        the states stay (a change against no earlier event never decided one).
+        """
+        sections = tuple(replace(s, k1_change_pct=None, k1_change_lo_pct=None,
+                                 k1_change_hi_pct=None, k1_change_scatter_pct=None)
+                         for s in self.sections)
+        return replace(self, sections=sections, k1_baseline="")
+
+    def with_design_k1(self, design_k1: np.ndarray) -> IdentificationResult:
+        """A copy whose sections carry ``k1_vs_design_pct``, ``k1``'s difference from the
+        design values ``design_k1`` (N,), N·m/rad.
+
+        A design value is no measurement: the difference is shown beside the parameters
+        and never decides a state, nor is it called a change.
+        """
+        diff = k1_change_pct(self.params.k1, design_k1)
+        sections = tuple(replace(s, k1_vs_design_pct=float(d) if math.isfinite(d) else None)
+                         for s, d in zip(self.sections, diff))
+        return replace(self, sections=sections)
+
     def with_check_reasons(self, reasons: Sequence[str]) -> IdentificationResult:
         """A copy that failed its self-check for ``reasons`` (none: the result unchanged).
 
@@ -422,6 +469,11 @@ class IdentificationResult:
         the findings existed loads."""
         d = dict(d)
         d["sections"] = tuple(SectionResult.from_dict(s) for s in d["sections"])
+        for name in ("window_start_s", "window_duration_s", "final_loss", "wall_time_s"):
+            d[name] = nan_if_none(d[name])
+        d["history"] = {k: [math.nan if v is None else v for v in vs]
+                        if isinstance(vs, list) else vs
+                        for k, vs in d.get("history", {}).items()}
         if d.get("p_overall_state") is not None:
             d["p_overall_state"] = tuple(float(v) for v in d["p_overall_state"])
         d["unreliable_reasons"] = tuple(str(r) for r in d.get("unreliable_reasons", ()))
@@ -430,14 +482,16 @@ class IdentificationResult:
         return cls(**d)
 
     def save_json(self, path: str | Path) -> Path:
-        """Write :meth:`to_dict` as JSON, atomically (a reader never sees half a file).
+        """Write :meth:`to_dict` as strict JSON, atomically (a reader never sees half a file).
 
-        Raises ``OSError`` when the file cannot be written.
+        A number that is not finite (a parameter of a failed identification, an undefined
+        spread) is written as ``null`` (:func:`~pier_monitor.core.fileio.to_strict_json`);
+        :meth:`load_json` reads it back as NaN.  Raises ``OSError`` when the file cannot be
+        written.
         """
         path = Path(path)
         with atomic_path(path) as tmp:
-            tmp.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=True) + "\n",
-                           encoding="utf-8")
+            tmp.write_text(to_strict_json(self.to_dict(), indent=2) + "\n", encoding="utf-8")
         return path
 
     @classmethod

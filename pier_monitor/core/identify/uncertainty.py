@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.fileio import nan_if_none
 
 from .states import DamageState, member_states
 
@@ -146,10 +147,12 @@ class SectionUncertainty:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SectionUncertainty:
         """Inverse of :meth:`to_dict`."""
-        spreads = {k: Spread(**d[k]) for k in (*PARAMETER_NAMES, "ductility_factor")}
-        # a malformed file raises KeyError / TypeError / ValueError, as for the other fields
-        p_intact, p_suspicious, p_damaged = (float(v) for v in d["p_state"])
-        return cls(**spreads, p_yielded=float(d["p_yielded"]),
+        spreads = {k: Spread(**{f: nan_if_none(v) for f, v in d[k].items()})
+                   for k in (*PARAMETER_NAMES, "ductility_factor")}
+        # a malformed file raises KeyError / TypeError / ValueError, as for the other fields;
+        # null (strict JSON's NaN) is NaN
+        p_intact, p_suspicious, p_damaged = (nan_if_none(v) for v in d["p_state"])
+        return cls(**spreads, p_yielded=nan_if_none(d["p_yielded"]),
                    p_state=(p_intact, p_suspicious, p_damaged), members=int(d["members"]))
 
 

@@ -54,6 +54,7 @@ from scipy import signal
 
 from pier_monitor.core.model.config import PierConfig, PierGeometry, SpringParameters
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.fileio import to_strict_json
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.model.ground_motion import synthetic_near_fault
 from pier_monitor.core.model.link_model import natural_periods
@@ -911,7 +912,7 @@ _SCALAR_LIST = re.compile(r"\[\s*([^\[\]{}]*?)\s*\]", re.DOTALL)
 
 def _compact_json(obj: Any) -> str:
     """Indented JSON with lists of numbers and strings kept on one line."""
-    text = json.dumps(obj, indent=2)
+    text = to_strict_json(obj, indent=2)
     return _SCALAR_LIST.sub(lambda m: "[" + re.sub(r"\s*\n\s*", " ", m.group(1)) + "]", text)
 
 
