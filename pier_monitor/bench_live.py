@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import subprocess
 import sys
 import tempfile
@@ -100,7 +99,7 @@ def _one_case(pier: str, layout: str, shaking: str, seed: int, work: Path) -> di
     run = truth.runs[0]
     end_shaking_ns = run.window_end_ns - int(round(truth.scenario.window_post_s * 1e9))
     namespace = f"/{truth.pier_id}"
-    env = dict(os.environ, ROS_DOMAIN_ID=str(random.randint(100, 200)),
+    env = dict(os.environ, ROS_DOMAIN_ID=str(100 + os.getpid() % 100),  # away from other graphs
                OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"))
     ros = ["--ros-args", "-r", f"__ns:={namespace}"]
     graph = _spawn([str(_SCRIPTS / "start_graph.py"), "--namespace", namespace,

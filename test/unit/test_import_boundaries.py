@@ -28,6 +28,7 @@ ROS = ("rclpy", "rcl_interfaces", "builtin_interfaces", "std_msgs", "sensor_msgs
        "diagnostic_msgs", "visualization_msgs", "geometry_msgs", "tf2_msgs", "pier_monitor_msgs")
 BAGS = ("rosbags", "mcap", "mcap_ros2")
 TOP = ("pier_monitor.cli", "pier_monitor.pipeline", "pier_monitor.events", "pier_monitor.bench",
+       "pier_monitor.bench_live",
        "pier_monitor.progress")
 
 #: Third-party packages a layer may import directly (by top-level name).
@@ -37,7 +38,7 @@ ALLOWED_THIRD_PARTY = {
     "bags": {"numpy", "yaml", *BAGS},
     "report": {"numpy", "matplotlib"},
     "nodes": {"numpy", "yaml", *ROS},
-    "top": {"numpy", "tqdm"},
+    "top": {"numpy", "tqdm", "yaml"},
     "fleet": {"numpy", "tqdm", "ray"},
     "root": set(),
 }
