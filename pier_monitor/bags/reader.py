@@ -185,7 +185,8 @@ def _recover(path: Path, err: Exception) -> _Recovered:
                 text = (f"{f.name}: the file magic (bytes 0-{d.end}) is damaged; the records "
                         "after it were read")
             else:
-                lost = ("" if before is None or after is None or before == after else
+                lost = ("" if before is None or after is None else
+                        f"; data lost around {fmt_time(before)}" if before == after else
                         f"; data lost from {fmt_time(before)} to {fmt_time(after)}")
                 text = (f"{f.name}: bytes {d.start}-{d.end} ({d.end - d.start} bytes) are "
                         f"unreadable ({d.reason}); the records before and after them were "
