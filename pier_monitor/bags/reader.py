@@ -366,7 +366,7 @@ def _judge_blocks(spec: SensorSpec, rate_hz: float, blocks: list[_Block], drops:
         ref = off[k - 1] if k > 0 else off[k + 1]
         stamp = stamp_to_ns(b.msg.header.stamp.sec, b.msg.header.stamp.nanosec)
         drops.add(sid, b, "header.stamp/first_sample_index",
-                  f"stamp {fmt_time(stamp) if abs(stamp) < 2 ** 62 else stamp} "
+                  f"stamp {fmt_time(stamp)} "
                   f"(sec {b.msg.header.stamp.sec}) and first_sample_index "
                   f"{b.msg.first_sample_index} disagree with the neighbouring blocks by "
                   f"{abs(off[k] - ref) / 1e9:.4g} s")

@@ -11,7 +11,7 @@ from pier_monitor.core.ingest.events import detect_events, trigger_threshold
 from pier_monitor.core.ingest.levels import level_motion_partial
 from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
-from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
+from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_time
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.ingest.windows import ingest_recording
 from pier_monitor.core.model.config import PierConfig
@@ -160,8 +160,27 @@ class StreamIngest:
             rate = self.config.sensor_rate_hz(self.config.sensor(sensor_id))
             sample_index = np.rint((time_ns - first) * (rate / NS_PER_S)).astype(np.int64)
         sample_index = np.asarray(sample_index, dtype=np.int64).reshape(-1)
+        # a block stamped far behind the stream (a logger without a clock yet) would stretch
+        # the buffer's time grid over years: dropped, and named
+        buffer_ns = int(self.buffer_s * NS_PER_S)
+        if time_ns.size and self._latest_ns is not None \
+                and int(time_ns.max()) < self._latest_ns - buffer_ns:
+            t = int(time_ns[0])
+            stale = sum(f.code == "stale_block" and f.where == sensor_id
+                        for f in self.report.findings)
+            if stale < 10:
+                self.report.add("stale_block", sensor_id, f"a block of {time_ns.size} samples "
+                                f"stamped {fmt_time(t)} is more than "
+                                f"buffer_s {self.buffer_s:g} s behind the stream's newest sample "
+                                f"{fmt_time(self._latest_ns)}; dropped", self._latest_ns,
+                                self._latest_ns, "excluded")
+            return []
         self._account(sensor_id, time_ns, sample_index)
-        self._buf.setdefault(sensor_id, []).append((time_ns, data, sample_index))
+        blocks = self._buf.setdefault(sensor_id, [])
+        blocks.append((time_ns, data, sample_index))
+        # and one already buffered before the stream's clock came (the same, seen late)
+        blocks[:] = [b for b in blocks if not b[0].size
+                     or int(b[0].max()) >= self._latest_ns - buffer_ns]
         self._trim(sensor_id)
         if sensor_id not in self._foundation or not time_ns.size:
             return []
