@@ -29,7 +29,9 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-from pier_monitor.core.errors import InputDataError, ReportError
+import numpy as np
+
+from pier_monitor.core.errors import InputDataError, PierMonitorError, ReportError
 from pier_monitor.core.fileio import remove_temporaries
 from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id, safe_child
@@ -164,7 +166,7 @@ class ResultsStore:
             if path.is_file():
                 try:
                     return IdentificationResult.load_json(path)
-                except (OSError, ValueError, KeyError, TypeError) as err:
+                except (OSError, ValueError, KeyError, TypeError, PierMonitorError) as err:
                     raise ReportError(f"{path}: cannot read: {err}") from err
         return None
 
@@ -183,12 +185,27 @@ class ResultsStore:
         """The baseline of ``window``'s identification (see the module documentation).
 
         The earliest reliable result (a successful identification that passed its
-        self-check) of the same pier whose window started before ``window.start_time_ns``;
-        None when there is none (compare with the design values).
+        self-check) of the same pier whose window started before ``window.start_time_ns``
+        and whose sections are those of ``window`` (the same heights) with positive finite
+        k1; None when there is none (compare with the design values).  A result skipped for
+        its geometry or its values is named in a warning on this module's logger.
         """
         earlier = [r for r in self.results(window.pier_id)
                    if r.reliable and r.window_start_ns < window.start_time_ns]
-        return earlier[0] if earlier else None
+        z = np.asarray(window.geometry.level_heights_m, dtype=float)
+        for r in earlier:
+            tops = np.array([s.z_top_m for s in r.sections], dtype=float)
+            k1 = np.array([s.k1 for s in r.sections], dtype=float)
+            if tops.shape != z[1:].shape or not np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
+                why = (f"its sections end at {tops.tolist()} m, the pier's now at "
+                       f"{z[1:].tolist()} m (the geometry changed)")
+            elif not np.all(np.isfinite(k1) & (k1 > 0)):
+                why = f"its k1 {k1.tolist()} are not all positive finite values"
+            else:
+                return r
+            log.warning("%s: not a baseline of event %s: %s", self.root / r.event_id /
+                        RESULT_JSON, window.event_id, why)
+        return None
 
     def pending(self, inbox: str | Path | None = None) -> PendingWindows:
         """Windows that are not done yet, oldest first, one per event.
@@ -220,8 +237,10 @@ class ResultsStore:
         for path in sorted(self.root.glob(f"*/{name}")):
             try:
                 result = IdentificationResult.load_json(path)
-            except (OSError, ValueError, KeyError, TypeError) as err:
-                log.warning("%s: unreadable, skipped: %s", path, err)
+            except (OSError, ValueError, KeyError, TypeError, PierMonitorError) as err:
+                # e.g. a non-finite k1: never a baseline, never a crash of the command
+                log.warning("%s: unreadable, skipped (not a baseline, not listed): %s", path,
+                            err)
                 continue
             if pier_id is None or result.pier_id == pier_id:
                 out.append(result)
