@@ -232,7 +232,7 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
                         help="where to train (auto: a CUDA GPU when there is one)")
     parser.add_argument("--train-seed", type=_seed, default=0, help="seed of the training")
-    parser.add_argument("--max-epochs", type=int, default=None,
+    parser.add_argument("--max-epochs", type=_positive_int, default=None,
                         help="epoch limit of the training (default: the benchmarked setting)")
     parser.add_argument("--members", type=_positive_int, default=None,
                         help="ensemble members identified together, for the uncertainty of every "
