@@ -13,11 +13,24 @@ order, gaps, duplicates, NaNs and all: judging them is the ingest's job, which t
 the sensor and time.  ``SampleBlock`` topics of sensors that are not in the map are listed in
 :attr:`Recording.unmapped_topics`; other topics are ignored.
 
+One malformed block never costs more than itself.  A block that cannot be decoded, that
+contradicts the sensor map (sensor id, kind, unit, axes, whole samples, a first sample
+index that fits 64 bits), that declares a rate none of the sensor's other blocks declares,
+or whose stamp and first sample index disagree with both neighbouring blocks by more than
+:data:`STAMP_TOLERANCE_NS` (a logger without a clock yet: stamped 0) is dropped with a
+``bad_block`` finding naming the sensor, the block (its number and log time) and the field.
+Messages of another type on a sensor's topic are ignored with a ``wrong_message_type``
+finding.  The findings are in :attr:`Recording.findings`, and the ingest reports them with
+its own.
+
 A logger that loses power leaves an mcap without its end (and a rosbag2 directory perhaps
-without ``metadata.yaml``).  When the normal reader fails on an mcap, the file is read again
-in order with mcap's stream reader up to the damage: the recording then holds every complete
-message before it, and its :attr:`~Recording.findings` a ``bag_truncated`` finding that says
-where the data end (time and message count).
+without ``metadata.yaml``); a bad sector overwrites bytes in the middle.  When the normal
+reader refuses a bag, its mcap files are scanned record by record
+(:func:`~pier_monitor.bags.recover.scan_mcap`): every readable record is kept, before and
+after a damage.  The findings say what was lost: ``bag_truncated`` (where the data end),
+``bag_damaged`` (the byte range lost and the time around it, or a damaged file magic),
+``bag_metadata`` (a missing or broken ``metadata.yaml`` alone: the storage files were read
+directly).
 """
 
 from __future__ import annotations
@@ -239,15 +252,15 @@ def read_bag(path: str | Path, *, pier_id: str | None = None,
     Recording
         The configuration from the bag and, per sensor of its map that has samples in the
         bag, ``time_ns`` (T,), ``sample_index`` (T,) and ``data`` (T, n_axes) in the sensor's
-        unit.  A truncated or partly corrupt mcap gives the messages before the damage and
-        a ``bag_truncated`` finding in :attr:`Recording.findings` saying where they end.
+        unit.  What was dropped or lost is in :attr:`Recording.findings` (see the module
+        doc): malformed blocks, stray message types, damaged or missing bytes, a broken
+        ``metadata.yaml``.
 
     Raises
     ------
     BagError
         Naming the file: it does not exist; it is damaged and nothing can be recovered; it
-        holds no configuration; a sensor topic has an unknown message type; a block
-        contradicts the sensor map (sensor id, kind, unit, axes) or cannot be decoded.
+        holds no configuration.
     ConfigError
         The embedded configuration is invalid (names the bag and topic).
     """
