@@ -385,7 +385,7 @@ def _judge_blocks(spec: SensorSpec, rate_hz: float, blocks: list[_Block], drops:
                   f"{abs(off[k] - ref) / 1e9:.4g} s")
     arrays = []
     for b in kept:
-        times, index, data, _ = sample_block_arrays(b.msg, spec, b.topic)
+        times, index, data, _ = sample_block_arrays(b.msg, spec, b.topic, checked=True)
         arrays.append((times, index, data))
     return arrays, rate
 

@@ -94,18 +94,20 @@ def block_problem(msg: Any, spec: SensorSpec, rate_hz: float | None = None
     return None
 
 
-def sample_block_arrays(msg: Any, spec: SensorSpec, where: str, rate_hz: float | None = None
+def sample_block_arrays(msg: Any, spec: SensorSpec, where: str, rate_hz: float | None = None,
+                        *, checked: bool = False
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """``(time_ns (T,), sample_index (T,), data (T, n_axes), rate_hz)`` of a SampleBlock.
 
-    The block must pass :func:`block_problem`.
+    The block must pass :func:`block_problem` (not asked again when ``checked``: the caller
+    did).
 
     Raises
     ------
     InputDataError
         Naming ``where`` and the field that contradicts the map.
     """
-    problem = block_problem(msg, spec, rate_hz)
+    problem = None if checked else block_problem(msg, spec, rate_hz)
     if problem is not None:
         raise InputDataError(f"{where}: {problem[1]}")
     rate = float(msg.sample_rate_hz)
