@@ -73,6 +73,17 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _seed(text: str) -> int:
+    """A random seed: a whole number from 0 to 2**32 - 1 (what numpy's generators take)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if not 0 <= value < 2 ** 32:
+        raise argparse.ArgumentTypeError(f"expected a seed from 0 to 4294967295, got {text!r}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of ``pier-monitor``."""
     parser = argparse.ArgumentParser(
@@ -103,7 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
     scale = sim.add_mutually_exclusive_group()
     scale.add_argument("--scale", type=_positive_float, help="multiply the record by S")
     scale.add_argument("--pga", type=_positive_float, help="scale the record to this PGA, m/s^2")
-    sim.add_argument("--seed", type=int, default=None,
+    sim.add_argument("--seed", type=_seed, default=None,
                      help="seed of the synthetic record / bag noise")
     sim.add_argument("--output-rate", type=_positive_float, default=100.0,
                      help="output sampling rate of .npz responses, Hz (default 100)")
@@ -209,7 +220,7 @@ def build_parser() -> argparse.ArgumentParser:
                                       "figures in the output directory.")
     demo.add_argument("--out", type=Path, default=Path("results/demo"),
                       help="output directory (default results/demo)")
-    demo.add_argument("--seed", type=int, default=0, help="seed of the synthetic bag")
+    demo.add_argument("--seed", type=_seed, default=0, help="seed of the synthetic bag")
     _add_training_options(demo)
 
     cmp_ = sub.add_parser(
@@ -230,8 +241,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
                         help="where to train (auto: a CUDA GPU when there is one)")
-    parser.add_argument("--train-seed", type=int, default=0, help="seed of the training")
-    parser.add_argument("--max-epochs", type=int, default=None,
+    parser.add_argument("--train-seed", type=_seed, default=0, help="seed of the training")
+    parser.add_argument("--max-epochs", type=_positive_int, default=None,
                         help="epoch limit of the training (default: the benchmarked setting)")
     parser.add_argument("--members", type=_positive_int, default=None,
                         help="ensemble members identified together, for the uncertainty of every "
@@ -363,7 +374,9 @@ def _print_outcome(outcome: BagOutcome) -> None:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    out = args.out if args.out is not None else Path("results") / args.bag.name.removesuffix(".mcap")
+    # the bag's own name, also when it is given as BAG/sub/.. or ./
+    default = Path("results") / args.bag.resolve().name.removesuffix(".mcap")
+    out = args.out if args.out is not None else default
     _check_out(out)
     outcome = _identify(args.bag, out, args, pier=args.pier, figures=not args.no_figures)
     _print_outcome(outcome)

@@ -19,22 +19,28 @@ empty directory, the first event of the bag.
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from pier_monitor.bags import read_bag
-from pier_monitor.core.errors import BagError, IdentificationError, InputDataError
-from pier_monitor.core.identify.damage import failed_event_result
+from pier_monitor.core.errors import BagError, PierMonitorError
+from pier_monitor.core.identify.damage import (IdentificationResult, failed_event_result,
+                                               failed_result)
 from pier_monitor.core.ingest import IngestReport, IngestSettings, ingest_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording
 from pier_monitor.core.ingest.settings import EventIngest, Finding
+from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import PierConfig
 from pier_monitor.events import EventOutcome, identify_window
 from pier_monitor.core.identify.methods import IdentifySettings, Progress
 from pier_monitor.report.store import ResultsStore
 
 __all__ = ["BagOutcome", "identify_bag"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -108,8 +114,7 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: IdentifySett
     store = ResultsStore(out_dir).create()
     recording = read_bag(bag, config=config)
     if not recording.sensors:
-        raise BagError(f"{bag}: the bag holds no samples of any sensor of the configuration's "
-                       f"map ({len(recording.config.sensors)} sensors listed)")
+        raise _no_samples(bag, recording)
     _, report = ingest_recording(recording, ingest_settings)
     settings = settings or IdentifySettings()
     events = []
@@ -131,14 +136,29 @@ def _identify(ingest: EventIngest, settings: IdentifySettings, store: ResultsSto
     window = ingest.window
     try:
         outcome = identify_window(window, settings, store, progress=progress, figures=figures)
-    except (IdentificationError, InputDataError) as err:  # bad window or result: this event
-        failed = store.fail_window(window, device=settings.device, message=(
-            f"identification failed: {type(err).__name__}: {err}"))
-        return EventOutcome(window=window, result=failed, out_dir=store.event_dir(
-            window.event_id), window_file=store.window_file(window.event_id), paths=None,
-            ingest=ingest)
+    except PierMonitorError as err:  # bad window, result or results directory: this event's
+        failed = failed_result(window, device=settings.device,
+                               message=f"identification failed: {type(err).__name__}: {err}")
+        return _failed_outcome(failed, store, window, ingest)
     return EventOutcome(window=outcome.window, result=outcome.result, out_dir=outcome.out_dir,
                         window_file=outcome.window_file, paths=outcome.paths, ingest=ingest)
+
+
+def _failed_outcome(failed: IdentificationResult, store: ResultsStore,
+                    window: MeasuredWindow | None, ingest: EventIngest) -> EventOutcome:
+    """A failed event's outcome, with its ``failed.json`` when its directory can hold one
+    (not when the directory itself is the fault, e.g. a link out of the results root)."""
+    out_dir = store.root / failed.event_id
+    window_file = None
+    try:
+        out_dir = store.record_failure(failed).parent
+        window_file = store.window_file(failed.event_id) if window is not None else None
+    except PierMonitorError as err:
+        failed = dataclasses.replace(failed, message=f"{failed.message}; no failure record "
+                                     f"written: {err}")
+        log.error("event %s: %s", failed.event_id, failed.message)
+    return EventOutcome(window=window, result=failed, out_dir=out_dir, window_file=window_file,
+                        paths=None, ingest=ingest)
 
 
 def _record_ingest_failure(ingest: EventIngest, recording: Recording,
@@ -150,6 +170,21 @@ def _record_ingest_failure(ingest: EventIngest, recording: Recording,
         start_ns=ingest.start_ns, duration_s=(ingest.end_ns - ingest.start_ns) / NS_PER_S,
         window_start_s=(ingest.start_ns - recording.start_ns) / NS_PER_S,
         message=f"ingest: {ingest.failure}", findings=ingest.findings)
-    path = store.record_failure(result)
-    return EventOutcome(window=None, result=result, out_dir=path.parent, window_file=None,
-                        paths=None, ingest=ingest)
+    return _failed_outcome(result, store, None, ingest)
+
+
+def _no_samples(bag: Path, recording: Recording) -> BagError:
+    """Why a bag gave no samples of the configuration's sensors: a pier id that does not
+    match the bag's topics is named as such."""
+    config = recording.config
+    ours = {s.topic.lstrip("/") for s in config.sensors}
+    namespaces = sorted({t[: -len(st) - 1] for t in recording.unmapped_topics for st in ours
+                         if t.endswith("/" + st)})
+    if namespaces:
+        return BagError(
+            f"{bag}: the configuration is of pier {config.pier_id!r} (its sensors on "
+            f"/{config.pier_id}/...) but the bag's sample blocks of the same sensors are "
+            f"under {', '.join(n + '/' for n in namespaces)}: the pier_id does not match the "
+            "bag's namespace; correct pier_id in the configuration (--pier)")
+    return BagError(f"{bag}: the bag holds no samples of any sensor of the configuration's "
+                    f"map ({len(config.sensors)} sensors listed)")

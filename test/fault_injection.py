@@ -215,3 +215,88 @@ def short_recording(seed: int = 0) -> tuple[SyntheticRecording, Timeline]:
                                (r.window_end_ns - rec.start_ns) / NS_PER_S)
                               for r in synthetic.truth.runs))
     return synthetic, timeline
+
+
+# -- block and bag faults ----------------------------------------------------------------------
+
+def in_layout(rec: Recording, layout: str) -> Recording:
+    """The recording as a field layout (``full``, ``accel``, ``sparse``) would record it: the
+    layout's configuration and only its sensors."""
+    from pier_monitor.core.synthetic.layouts import layout_config
+
+    config = layout_config(rec.config, layout)
+    keep = {s.sensor_id for s in config.sensors}
+    return dataclasses.replace(
+        rec, config=config, sensors={k: v for k, v in rec.sensors.items() if k in keep},
+        config_updates=tuple((t, layout_config(c, layout)) for t, c in rec.config_updates))
+
+
+def block_fault_bag(rec: Recording, path, faults: dict, block_s: float = 1.0) -> None:
+    """Write ``rec`` to a plain mcap with some sample blocks changed.
+
+    ``faults`` maps ``(sensor id, block number)`` (1-based, in time order) to
+    ``change(msg) -> (type name, cdr bytes) | None``: ``msg`` is the decoded SampleBlock, to
+    edit in place (None: serialize it as edited), or a replacement of another type or of
+    undecodable bytes.
+    """
+    from pier_monitor.bags.types import SAMPLE_BLOCK, STRING, get_typestore
+    from pier_monitor.bags.writer import iter_messages, write_mcap_messages
+
+    typestore = get_typestore()
+    by_topic = {}
+    for spec in rec.config.sensors:
+        by_topic[f"/{rec.config.pier_id}/{spec.topic.lstrip('/')}"] = spec.sensor_id
+    conns: list[tuple[str, str, bool]] = []
+    where: dict[tuple[str, str], int] = {}
+    msgs = []
+    counts: dict[str, int] = {}
+    for log_ns, topic, cdr in iter_messages(rec, block_s):
+        mtype = SAMPLE_BLOCK if topic in by_topic else STRING
+        if mtype == SAMPLE_BLOCK:
+            sid = by_topic[topic]
+            counts[sid] = counts.get(sid, 0) + 1
+            change = faults.get((sid, counts[sid]))
+            if change is not None:
+                msg = typestore.deserialize_cdr(cdr, SAMPLE_BLOCK)
+                out = change(msg)
+                if out is None:
+                    cdr = bytes(typestore.serialize_cdr(msg, SAMPLE_BLOCK))
+                else:
+                    mtype, cdr = out
+        key = (topic, mtype)
+        if key not in where:
+            where[key] = len(conns)
+            conns.append((topic, mtype, mtype == STRING and topic not in by_topic))
+        msgs.append((log_ns, where[key], cdr))
+    write_mcap_messages(path, conns, msgs)
+
+
+def stray_string(text: str = "hello"):
+    """A ``std_msgs/String`` in place of a block (a stray publisher on the sensor topic)."""
+    from pier_monitor.bags.types import STRING, get_typestore
+
+    def change(msg):
+        typestore = get_typestore()
+        return STRING, bytes(typestore.serialize_cdr(typestore.types[STRING](data=text), STRING))
+    return change
+
+
+def garbled(msg):
+    """A block whose bytes are cut in the middle (undecodable)."""
+    from pier_monitor.bags.types import SAMPLE_BLOCK, get_typestore
+
+    cdr = bytes(get_typestore().serialize_cdr(msg, SAMPLE_BLOCK))
+    return SAMPLE_BLOCK, cdr[:len(cdr) // 3]
+
+
+def set_fields(**fields):
+    """A block with some fields replaced (``stamp_sec`` for ``header.stamp.sec``)."""
+    def change(msg):
+        for name, value in fields.items():
+            if name == "stamp_sec":
+                msg.header.stamp.sec = value
+            elif name == "stamp_ns":
+                msg.header.stamp.sec, msg.header.stamp.nanosec = 0, value
+            else:
+                setattr(msg, name, value)
+    return change

@@ -34,6 +34,7 @@ __all__ = [
     "STRING",
     "KIND_CODES",
     "KIND_NAMES",
+    "block_problem",
     "sample_block_arrays",
     "find_msg_dir",
     "get_typestore",
@@ -52,43 +53,66 @@ KIND_CODES = {"acceleration": 0, "displacement": 1, "velocity": 2}
 KIND_NAMES = {code: name for name, code in KIND_CODES.items()}
 
 
-def sample_block_arrays(msg: Any, spec: SensorSpec, where: str, rate_hz: float | None = None
-                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """``(time_ns (T,), sample_index (T,), data (T, n_axes), rate_hz)`` of a SampleBlock.
+_INDEX_MAX = 2 ** 63 - 1
+
+
+def block_problem(msg: Any, spec: SensorSpec, rate_hz: float | None = None
+                  ) -> tuple[str, str] | None:
+    """``(field, what is wrong)`` of a SampleBlock that contradicts the sensor map, or None.
 
     ``msg`` is a decoded ``pier_monitor_msgs/msg/SampleBlock`` (rosbags or rclpy: the same
     fields).  The block must match the sensor map: sensor id, kind, unit, axes, a positive
-    rate (equal to ``rate_hz`` when given) and whole samples.
+    rate (equal to ``rate_hz`` when given), whole samples and a first sample index whose
+    samples fit a signed 64-bit index.
+    """
+    if msg.sensor_id != spec.sensor_id:
+        return "sensor_id", (f"block of sensor {msg.sensor_id!r} on the topic of sensor "
+                             f"{spec.sensor_id!r}")
+    kind = KIND_NAMES.get(int(msg.kind))
+    if kind != spec.kind:
+        return "kind", (f"block kind {msg.kind} ({kind or 'unknown'}) but the configuration "
+                        f"says {spec.kind}")
+    if msg.unit != spec.unit:
+        return "unit", f"block unit {msg.unit!r} but the configuration says {spec.unit!r}"
+    if list(msg.axes) != list(spec.axes):
+        return "axes", (f"block axes {list(msg.axes)} but the configuration says "
+                        f"{list(spec.axes)}")
+    rate = float(msg.sample_rate_hz)
+    if not (math.isfinite(rate) and rate > 0):
+        return "sample_rate_hz", f"invalid sample_rate_hz {rate}"
+    if rate_hz is not None and abs(rate - rate_hz) > 1e-6 * rate_hz:
+        return "sample_rate_hz", (f"sample_rate_hz {rate:g} but the configuration says "
+                                  f"{rate_hz:g}")
+    size = len(msg.data)
+    n_axes = len(spec.axes)
+    if size % n_axes:
+        return "data", (f"{size} values are not a whole number of samples of {n_axes} axes")
+    first = int(msg.first_sample_index)
+    if first + size // n_axes > _INDEX_MAX:
+        return "first_sample_index", (f"first_sample_index {first} does not fit a signed "
+                                      "64-bit sample index")
+    return None
+
+
+def sample_block_arrays(msg: Any, spec: SensorSpec, where: str, rate_hz: float | None = None,
+                        *, checked: bool = False
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """``(time_ns (T,), sample_index (T,), data (T, n_axes), rate_hz)`` of a SampleBlock.
+
+    The block must pass :func:`block_problem` (not asked again when ``checked``: the caller
+    did).
 
     Raises
     ------
     InputDataError
         Naming ``where`` and the field that contradicts the map.
     """
-    if msg.sensor_id != spec.sensor_id:
-        raise InputDataError(f"{where}: block of sensor {msg.sensor_id!r} on the topic of "
-                             f"sensor {spec.sensor_id!r}")
-    kind = KIND_NAMES.get(int(msg.kind))
-    if kind != spec.kind:
-        raise InputDataError(f"{where}: block kind {msg.kind} ({kind or 'unknown'}) but the "
-                             f"configuration says {spec.kind}")
-    if msg.unit != spec.unit:
-        raise InputDataError(f"{where}: block unit {msg.unit!r} but the configuration says "
-                             f"{spec.unit!r}")
-    if list(msg.axes) != list(spec.axes):
-        raise InputDataError(f"{where}: block axes {list(msg.axes)} but the configuration "
-                             f"says {list(spec.axes)}")
+    problem = None if checked else block_problem(msg, spec, rate_hz)
+    if problem is not None:
+        raise InputDataError(f"{where}: {problem[1]}")
     rate = float(msg.sample_rate_hz)
-    if not (math.isfinite(rate) and rate > 0):
-        raise InputDataError(f"{where}: invalid sample_rate_hz {rate}")
-    if rate_hz is not None and abs(rate - rate_hz) > 1e-6 * rate_hz:
-        raise InputDataError(f"{where}: sample_rate_hz {rate:g} but the configuration says "
-                             f"{rate_hz:g}")
     data = np.asarray(msg.data, dtype=np.float64)
     n_axes = len(spec.axes)
-    if data.size % n_axes:
-        raise InputDataError(f"{where}: {data.size} values are not a whole number of samples "
-                             f"of {n_axes} axes")
     n = data.size // n_axes
     times = sample_times_ns(stamp_to_ns(msg.header.stamp.sec, msg.header.stamp.nanosec), n, rate)
     index = int(msg.first_sample_index) + np.arange(n, dtype=np.int64)

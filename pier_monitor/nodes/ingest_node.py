@@ -176,6 +176,11 @@ class IngestNode(Node):
                     msg, spec, self._stream.config.sensor_rate_hz(spec), topic)
         except Exception as err:
             self._drop(topic, err)
+            # a finding too, as the bag reader gives: the stream's report names the block
+            t_ns = self._stream.latest_time_ns or 0
+            if self._drops_by_topic[topic] <= 10:  # a flood is counted, not listed
+                self._stream.report.add("bad_block", sid, f"{topic}: {type(err).__name__}: {err}; "
+                                        "block dropped", t_ns, t_ns, "excluded")
             return
         self._last_seen[sid] = time.monotonic()
         for window in self._stream.push(sid, times, data, index):

@@ -30,7 +30,9 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-from pier_monitor.core.errors import InputDataError, ReportError
+import numpy as np
+
+from pier_monitor.core.errors import InputDataError, PierMonitorError, ReportError
 from pier_monitor.core.fileio import remove_temporaries
 from pier_monitor.core.identify.damage import IdentificationResult, failed_result
 from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id, safe_child
@@ -182,7 +184,7 @@ class ResultsStore:
             if path.is_file():
                 try:
                     return IdentificationResult.load_json(path)
-                except (OSError, ValueError, KeyError, TypeError) as err:
+                except (OSError, ValueError, KeyError, TypeError, PierMonitorError) as err:
                     raise ReportError(f"{path}: cannot read: {err}") from err
         return None
 
@@ -201,18 +203,34 @@ class ResultsStore:
         """The baseline of ``window``'s identification (see the module documentation).
 
         The earliest reliable result (a successful identification that passed its
-        self-check) of the same pier whose window started before ``window.start_time_ns``;
-        None when there is none (compare with the design values).
+        self-check) of the same pier whose window started before ``window.start_time_ns``
+        and whose sections are those of ``window`` (the same heights) with positive finite
+        k1; None when there is none (compare with the design values).  A result skipped for
+        its geometry or its values is named in a warning on this module's logger.
         """
         earlier = [r for r in self.results(window.pier_id)
                    if self.is_baseline(r) and r.window_start_ns < window.start_time_ns]
-        return earlier[0] if earlier else None
+        z = np.asarray(window.geometry.level_heights_m, dtype=float)
+        for r in earlier:
+            tops = np.array([s.z_top_m for s in r.sections], dtype=float)
+            if tops.shape == z[1:].shape and np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
+                return r
+            log.warning("%s: not a baseline of event %s: its sections end at %s m, the "
+                        "pier's now at %s m (the geometry changed)", self.root / r.event_id /
+                        RESULT_JSON, window.event_id, tops.tolist(), z[1:].tolist())
+        return None
 
     @staticmethod
     def is_baseline(result: IdentificationResult) -> bool:
         """Whether ``result`` may be a later event's baseline: a reliable result (a
-        successful identification that passed its self-check).  The one rule of
-        :meth:`baseline_for` and of the fleet's scheduler."""
+        successful identification that passed its self-check) whose ``k1`` are all finite
+        and positive.  The one rule of :meth:`baseline_for` and of the fleet's scheduler
+        (:meth:`baseline_for` also needs the sections of the pier as it is now)."""
+        k1 = np.array([s.k1 for s in result.sections], dtype=float)
+        if result.reliable and not np.all(np.isfinite(k1) & (k1 > 0)):
+            log.warning("event %s: not a baseline: its k1 %s are not all positive finite "
+                        "values", result.event_id, k1.tolist())
+            return False
         return result.reliable
 
     def pending(self, inbox: str | Path | None = None) -> PendingWindows:
@@ -245,8 +263,10 @@ class ResultsStore:
         for path in sorted(self.root.glob(f"*/{name}")):
             try:
                 result = IdentificationResult.load_json(path)
-            except (OSError, ValueError, KeyError, TypeError) as err:
-                log.warning("%s: unreadable, skipped: %s", path, err)
+            except (OSError, ValueError, KeyError, TypeError, PierMonitorError) as err:
+                # e.g. a non-finite k1: never a baseline, never a crash of the command
+                log.warning("%s: unreadable, skipped (not a baseline, not listed): %s", path,
+                            err)
                 continue
             if pier_id is None or result.pier_id == pier_id:
                 out.append(result)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -322,12 +324,49 @@ def test_bag_cut_inside_run2_reports_run2_as_cut(written, full_windows, tmp_path
     assert "bag_truncated" in [f.code for f in cut.findings]
 
 
-def test_bag_with_a_corrupt_middle_is_read_up_to_the_corruption(written, tmp_path):
-    bag = _damaged_copy(written, tmp_path, "mcap", flip_at=0.6)
+@pytest.mark.parametrize("fmt", ["mcap", "rosbag2"])
+def test_bag_with_a_corrupt_middle_keeps_every_readable_chunk_after_it(written, full_windows,
+                                                                        tmp_path, fmt):
+    from pier_monitor.core.ingest import ingest_recording
+
+    bag = _damaged_copy(written, tmp_path, fmt, flip_at=0.3)
     recording = read_bag(bag)
     (finding,) = recording.findings
-    assert finding.code == "bag_truncated" and "damaged (cut.mcap: " in finding.message
-    assert recording.end_ns <= finding.end_ns
+    assert finding.code == "bag_damaged" and finding.where == str(bag)
+    storage = bag if fmt == "mcap" else next(bag.glob("*.mcap"))
+    at = int(storage.stat().st_size * 0.3)
+    start, end = (int(b) for b in re.search(r"bytes (\d+)-(\d+) \(", finding.message).groups())
+    # the noise ends inside the range (a whole compressed chunk, or the records of an
+    # uncompressed one from the first whose framing it breaks)
+    assert start <= at + 4096 <= end and end - start < 2_000_000
+    assert "the records before and after them were read; data lost " in finding.message
+    # the data after the damage are all there: run 2 ingested exactly as from the whole bag
+    assert recording.end_ns == written["expected"].end_ns
+    windows, report = ingest_recording(recording)
+    assert windows[-1] == dataclasses.replace(full_windows[-1], report=windows[-1].report)
+    assert len(report.outcomes) == 2
+
+
+def test_bag_with_a_damaged_magic_is_read_whole(written, tmp_path):
+    bag = _damaged_copy(written, tmp_path, "mcap", keep=1.0)
+    with bag.open("r+b") as fh:
+        fh.write(b"\x00" * 8)
+    recording = read_bag(bag)
+    (finding,) = recording.findings
+    assert finding.code == "bag_damaged" and "the file magic (bytes 0-8) is damaged" in \
+        finding.message
+    assert_recordings_equal(recording, written["expected"])
+
+
+def test_a_broken_metadata_yaml_alone_is_named_and_the_storage_read(written, tmp_path):
+    bag = _damaged_copy(written, tmp_path, "rosbag2", keep=1.0)
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: [unclosed\n")
+    recording = read_bag(bag)
+    (finding,) = recording.findings
+    assert finding.code == "bag_metadata" and finding.where == str(bag / "metadata.yaml")
+    assert "it cannot be read" in finding.message and "were read directly" in finding.message
+    assert "damaged" not in finding.message
+    assert_recordings_equal(recording, written["expected"])
 
 
 def test_rosbag2_directory_without_metadata_is_recovered(written, tmp_path):
@@ -401,23 +440,28 @@ def test_bag_whose_configuration_has_an_unsafe_pier_id_is_refused(written, tmp_p
         read_bag(bag)
 
 
-def test_unknown_message_type_on_a_sensor_topic_is_a_bag_error(written, tmp_path):
+def test_unknown_message_type_on_a_sensor_topic_is_ignored_with_a_finding(written, tmp_path):
     types = get_typestore().types
     config = written["expected"].config
     spec = config.sensor("l0_acc_nw")
+    other = config.sensor("l0_acc_ne")
     bag = tmp_path / "wrong_type"
     _write_raw_rosbag2(bag, [
         (config_topic(config.pier_id), "std_msgs/msg/String",
          [(1, types["std_msgs/msg/String"](data=config.to_yaml()))]),
         (sensor_topic(config.pier_id, spec), "std_msgs/msg/Float64",
          [(2, types["std_msgs/msg/Float64"](data=1.0))]),
+        (sensor_topic(config.pier_id, other), SAMPLE_BLOCK, [(3, _block(other))]),
     ])
-    with pytest.raises(BagError, match=r"wrong_type: unknown message type 'std_msgs/msg/Float64' "
-                                       r"on /edefense_pier/sensors/level0/acc_nw"):
-        read_bag(bag)
+    recording = read_bag(bag)
+    assert list(recording.sensors) == ["l0_acc_ne"]
+    (finding,) = recording.findings
+    assert finding.code == "wrong_message_type" and finding.where == "l0_acc_nw"
+    assert ("messages of type 'std_msgs/msg/Float64' on /edefense_pier/sensors/level0/acc_nw"
+            in finding.message)
 
 
-def test_block_contradicting_the_sensor_map_is_a_bag_error(written, tmp_path):
+def test_block_contradicting_the_sensor_map_is_dropped_with_a_finding(written, tmp_path):
     types = get_typestore().types
     config = written["expected"].config
     spec = config.sensor("l0_acc_nw")  # m/s^2 in the map
@@ -427,9 +471,14 @@ def test_block_contradicting_the_sensor_map_is_a_bag_error(written, tmp_path):
          [(1, types["std_msgs/msg/String"](data=config.to_yaml()))]),
         (sensor_topic(config.pier_id, spec), SAMPLE_BLOCK, [(2, _block(spec, unit="gal"))]),
     ])
-    with pytest.raises(BagError, match=r"acc_nw at 2 ns: block unit 'gal' but the "
-                                       r"configuration says 'm/s\^2'"):
-        read_bag(bag)
+    recording = read_bag(bag)
+    assert recording.sensors == {}
+    (finding,) = recording.findings
+    assert finding.code == "bad_block" and finding.where == "l0_acc_nw"
+    assert finding.action == "excluded" and finding.start_ns == 2
+    assert re.search(r"acc_nw: block 1 \(logged at .*\): unit: block unit 'gal' but the "
+                     r"configuration says 'm/s\^2'; block dropped \(3 samples\)",
+                     finding.message)
 
 
 def test_writer_refuses_to_overwrite(written, tmp_path):

@@ -247,10 +247,14 @@ def test_bad_parameters_bad_messages_and_failed_training_keep_the_nodes_running(
     pub.publish(b"\x00\x01\x00\x00 not a SampleBlock")  # malformed CDR
     pub.publish(block(unit="furlong"))                  # contradicts the sensor map
     pub.publish(serialize_message(Imu()))               # bytes of another type
+    pub.publish(block(first_sample_index=2 ** 63))     # an index beyond int64
     pub.publish(block())                                # a good block still counts
-    listener.wait(lambda: listener.ingest_values().get("messages_dropped") == "3"
+    no_clock = block(first_sample_index=10)
+    no_clock.header.stamp.sec = 0                       # a logger without a clock yet
+    pub.publish(no_clock)
+    listener.wait(lambda: listener.ingest_values().get("messages_dropped") == "4"
                   and listener.ingest_values().get("samples_received") == "10", 15,
-                  "three dropped messages and one good block in the ingest status")
+                  "four dropped messages and one good block in the ingest status")
     assert ingest.popen.poll() is None and ident.popen.poll() is None
     assert interrupt(ingest) == 0 and interrupt(ident) == 0
     log = "\n".join(ingest.read_rest())

@@ -209,10 +209,40 @@ def clean_sensor(spec: SensorSpec, rec: SensorRecord, t0_ns: int, n: int, rate_h
     return cs
 
 
+def _restarted(sid: str, rec: SensorRecord, period_ns: float, report: IngestReport
+               ) -> np.ndarray:
+    """The sample index with its restarts undone (a logger rebooted mid-stream: its index
+    falls back, e.g. to 0, while its clock goes on).
+
+    In time order, an index that falls back by more than a second of samples while the
+    timestamps advance is a restart: the samples from it on get the index the timestamps
+    give them, continuing the earlier count, so that they are not taken for duplicates."""
+    idx = rec.sample_index
+    if rec.n_samples < 2:
+        return idx
+    order = np.argsort(rec.time_ns, kind="stable")
+    t, ix = rec.time_ns[order], idx[order].copy()
+    limit = max(1.0, NS_PER_S / period_ns)
+    d_t = np.diff(t)
+    back = np.flatnonzero((np.diff(ix) < -limit) & (d_t > 0))
+    if back.size == 0:
+        return idx
+    for k in back:
+        shift = int(ix[k]) + int(round(d_t[k] / period_ns)) - int(ix[k + 1])
+        report.add("index_restart", sid, f"sample index restarts at {int(ix[k + 1])} (from "
+                   f"{int(ix[k])}) at {fmt_time(int(t[k + 1]))}: a restart of the logger, not "
+                   "duplicates; the samples after it indexed by their timestamps",
+                   int(t[k + 1]), int(t[-1]), "repaired")
+        ix[k + 1:] += shift
+    out = np.empty_like(idx)
+    out[order] = ix
+    return out
+
+
 def _ordered(sid: str, rec: SensorRecord, period_ns: float,
              report: IngestReport) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Samples ordered by index, duplicates dropped, timestamps re-timed from the index."""
-    t, idx, data = rec.time_ns, rec.sample_index, rec.data
+    t, idx, data = rec.time_ns, _restarted(sid, rec, period_ns, report), rec.data
     order = np.lexsort((t, idx))
     if np.any(np.diff(order) < 0):
         k = int(np.flatnonzero(np.diff(order) < 0)[0])

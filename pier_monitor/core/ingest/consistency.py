@@ -30,6 +30,7 @@ from scipy import signal
 from pier_monitor.core.ingest.clean import GLITCH, CleanSensor, block_median, fmt_recorded, runs_of
 from pier_monitor.core.ingest.levels import HorizontalChannel, availability_patterns, horizontal_channels
 from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_span
+from pier_monitor.core.model.units import G_STANDARD, UNIT_FACTORS
 
 __all__ = ["check_units", "check_accelerometers", "check_displacement", "leave_one_out"]
 
@@ -48,10 +49,17 @@ def check_units(cleaned: list[CleanSensor], report: IngestReport) -> None:
 
     The level of motion is a robust spread (1.4826 × the median absolute deviation of each
     horizontal channel), so that a few wild samples (glitches, found later) do not make a
-    sensor look like one in the wrong unit."""
+    sensor look like one in the wrong unit.
+
+    First, on its own: an accelerometer whose configured ``z`` offset is gravity (it records
+    the static 1 g) and whose ``z`` reads at rest a unit factor away from it (e.g. 1.0 where
+    9.81 m/s² is configured: recorded in g) is excluded as a units problem, named with the
+    unit it looks recorded in."""
     by_level: dict[int, list[tuple[CleanSensor, float]]] = {}
     for cs in cleaned:
         if cs.spec.kind != "acceleration":
+            continue
+        if _gravity_units(cs, report):
             continue
         h = [j for j, a in enumerate(cs.spec.axes) if a != "z"]
         sel = cs.usable[:, h].all(axis=1) & np.isfinite(cs.values[:, h]).all(axis=1)
@@ -77,6 +85,40 @@ def check_units(cleaned: list[CleanSensor], report: IngestReport) -> None:
                            f"{cs.spec.unit!r} looks wrong (or the sensor does not feel the motion); "
                            "sensor excluded",
                            cs.time_ns(0), cs.time_ns(n - 1), "excluded")
+
+
+def _gravity_units(cs: CleanSensor, report: IngestReport) -> bool:
+    """Whether the sensor's ``z`` contradicts its unit by the gravity it reads (see
+    :func:`check_units`); then it is excluded with an ``implausible_units`` finding."""
+    spec = cs.spec
+    if "z" not in spec.axes:
+        return False
+    j = spec.axes.index("z")
+    offset = float(spec.offsets[j])
+    g_declared = abs(offset) * spec.si_factor / abs(spec.gain)
+    col = cs.values[:, j]
+    ok = cs.usable[:, j] & np.isfinite(col)
+    if not 0.8 * G_STANDARD < g_declared < 1.25 * G_STANDARD or ok.sum() < 10:
+        return False
+    # the recorded z at rest, in the sensor's unit (gain, sign and offset put back)
+    at_rest = float(np.median(col[ok])) * spec.gain * spec.signs[j] / spec.si_factor + offset
+    ratio = at_rest / offset
+    if 0.8 < ratio < 1.25:
+        return False
+    g_read = abs(at_rest) * spec.si_factor / abs(spec.gain)
+    units = UNIT_FACTORS["acceleration"]
+    guess = [u for u, f in units.items() if abs(abs(at_rest) * f / abs(spec.gain) - G_STANDARD)
+             < 0.1 * G_STANDARD and u != spec.unit]
+    looks = (f"; it looks recorded in {guess[0]!r}" if guess else "")
+    cs.usable[:, :] = False
+    n = cs.values.shape[0]
+    report.add("implausible_units", spec.sensor_id,
+               f"units: z reads {at_rest:.4g} {spec.unit} at rest where its configured offset "
+               f"(gravity) is {offset:.4g} {spec.unit}: {g_read:.4g} m/s² of gravity instead of "
+               f"{G_STANDARD:.4g}, a unit factor of {1 / ratio:.4g}; declared unit "
+               f"{spec.unit!r}{looks}; sensor excluded", cs.time_ns(0), cs.time_ns(n - 1),
+               "excluded")
+    return True
 
 
 def leave_one_out(m: np.ndarray, e: np.ndarray, avail: np.ndarray

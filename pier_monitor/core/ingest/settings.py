@@ -281,7 +281,10 @@ class IngestReport:
 def fmt_time(t_ns: int) -> str:
     """UTC time of ``t_ns`` (ns since the Unix epoch) to the millisecond."""
     t_ns = int(t_ns)
-    stamp = datetime.fromtimestamp(t_ns // NS_PER_S, tz=timezone.utc)
+    try:
+        stamp = datetime.fromtimestamp(t_ns // NS_PER_S, tz=timezone.utc)
+    except (OverflowError, ValueError, OSError):  # beyond the calendar: the number itself
+        return f"{t_ns} ns"
     return f"{stamp.strftime('%Y-%m-%dT%H:%M:%S')}.{(t_ns % NS_PER_S) // 1_000_000:03d}Z"
 
 

@@ -60,14 +60,29 @@ class _Buffer:
         self.cap = cap
         self._blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self.size = 0
+        self.oldest_ns: int | None = None
 
     def append(self, time_ns: np.ndarray, data: np.ndarray, index: np.ndarray) -> None:
         self._blocks.append((time_ns, data, index))
         self.size += time_ns.size
+        if time_ns.size:
+            low = int(time_ns.min())
+            self.oldest_ns = low if self.oldest_ns is None else min(self.oldest_ns, low)
         if self.size > self.cap + max(self.cap // 8, 1):
             t, d, i = self.arrays()
             self._blocks = [(t[-self.cap:], d[-self.cap:], i[-self.cap:])]
             self.size = self.cap
+
+    def drop_before(self, limit_ns: int) -> None:
+        """Drop the samples stamped before ``limit_ns`` (e.g. a block that came before the
+        stream's clock did, seen late as far behind it)."""
+        if self.oldest_ns is None or self.oldest_ns >= limit_ns:
+            return
+        t, d, i = self.arrays()
+        keep = t >= limit_ns
+        self._blocks = [(t[keep], d[keep], i[keep])]
+        self.size = int(keep.sum())
+        self.oldest_ns = int(t[keep].min()) if self.size else None
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(time_ns (T,), data (T, n_axes), sample_index (T,))`` in arrival order."""
@@ -205,11 +220,29 @@ class StreamIngest:
             rate = self.config.sensor_rate_hz(self.config.sensor(sensor_id))
             sample_index = np.rint((time_ns - first) * (rate / NS_PER_S)).astype(np.int64)
         sample_index = np.asarray(sample_index, dtype=np.int64).reshape(-1)
+        # a block stamped far behind the stream (a logger without a clock yet) would stretch
+        # the buffer's time grid over years: dropped, and named
+        buffer_ns = int(self.buffer_s * NS_PER_S)
+        if time_ns.size and self._latest_ns is not None \
+                and int(time_ns.max()) < self._latest_ns - buffer_ns:
+            t = int(time_ns[0])
+            stale = sum(f.code == "stale_block" and f.where == sensor_id
+                        for f in self.report.findings)
+            if stale < 10:
+                self.report.add("stale_block", sensor_id, f"a block of {time_ns.size} samples "
+                                f"stamped {fmt_time(t)} is more than "
+                                f"buffer_s {self.buffer_s:g} s behind the stream's newest sample "
+                                f"{fmt_time(self._latest_ns)}; dropped", self._latest_ns,
+                                self._latest_ns, "excluded")
+            return []
         self._account(sensor_id, time_ns, sample_index)
         if sensor_id not in self._buf:
             rate = self.config.sensor_rate_hz(self.config.sensor(sensor_id))
             self._buf[sensor_id] = _Buffer(int(self.buffer_s * rate) + 1)
         self._buf[sensor_id].append(time_ns, data, sample_index)
+        # and one already buffered before the stream's clock came (the same, seen late)
+        if self._latest_ns is not None:
+            self._buf[sensor_id].drop_before(self._latest_ns - buffer_ns)
         if sensor_id not in self._foundation or not time_ns.size:
             return []
         now = int(time_ns.max())
