@@ -220,16 +220,15 @@ class ResultsStore:
                         RESULT_JSON, window.event_id, tops.tolist(), z[1:].tolist())
         return None
 
-    @staticmethod
-    def is_baseline(result: IdentificationResult) -> bool:
+    def is_baseline(self, result: IdentificationResult) -> bool:
         """Whether ``result`` may be a later event's baseline: a reliable result (a
         successful identification that passed its self-check) whose ``k1`` are all finite
         and positive.  The one rule of :meth:`baseline_for` and of the fleet's scheduler
         (:meth:`baseline_for` also needs the sections of the pier as it is now)."""
         k1 = np.array([s.k1 for s in result.sections], dtype=float)
         if result.reliable and not np.all(np.isfinite(k1) & (k1 > 0)):
-            log.warning("event %s: not a baseline: its k1 %s are not all positive finite "
-                        "values", result.event_id, k1.tolist())
+            log.warning("%s: not a baseline: its k1 %s are not all positive finite values",
+                        self.root / result.event_id / RESULT_JSON, k1.tolist())
             return False
         return result.reliable
 
