@@ -23,6 +23,7 @@ from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.identify.selfcheck import energy_indices, model_misfit
 from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import PierConfig, SpringParameters, load_config
@@ -421,6 +422,82 @@ def bench_fleet(piers: int = 4, max_epochs: int = 100) -> list[dict[str, Any]]:
     return out
 
 
+#: Seeds of the self-check suite: thresholds are chosen on the tuning seeds
+#: (:class:`~pier_monitor.core.identify.selfcheck.MisfitLimits`) and scored on the held-out
+#: ones.
+SELFCHECK_TUNING_SEEDS = (300, 301)
+SELFCHECK_HELD_OUT_SEEDS = (302, 303, 304)
+#: The sensor fault of the self-check suite: an offset step, m/s², in the relative
+#: acceleration of one level from the middle of the window.
+SELFCHECK_FAULT_MPS2 = 0.5
+
+
+def _selfcheck_entry(run: IdentificationRun, window: MeasuredWindow, theta_true: np.ndarray,
+                     truth: SpringParameters | None, **info: Any) -> dict[str, Any]:
+    """One self-check run: the misfit of the identified model, the energy indices, the true
+    DF (``truth`` None: the true DF is not a bilinear one and is left out)."""
+    params = run.result.params
+    misfit = model_misfit(window, params)
+    a_rel = np.where(window.coverage.acceleration, window.a, run.reproduced.a)
+    energy = energy_indices(window, params, run.reproduced.theta, a_rel)
+    out = {**info, "wall_s": run.result.wall_time_s, "device": run.result.device,
+           "misfit": misfit.as_dict(), "energy_index": [float(v) for v in energy],
+           "df": [float(v) for v in run.result.ductility_factors],
+           "states": [s.state for s in run.result.sections]}
+    if truth is not None:
+        out["true_df"] = [float(v) for v in np.abs(theta_true).max(axis=0)
+                          / truth.yield_angles]
+    return out
+
+
+def _with_sensor_fault(window: MeasuredWindow, level: int, offset_mps2: float
+                       ) -> MeasuredWindow:
+    """``window`` with an offset step in the relative acceleration of ``level`` (0-based)
+    from the middle of the window on."""
+    a = np.array(window.a)
+    a[window.t.size // 2:, level] += offset_mps2
+    return dataclasses.replace(window, a=a)
+
+
+def bench_selfcheck(tuning_seeds: tuple[int, ...] = SELFCHECK_TUNING_SEEDS,
+                    held_out_seeds: tuple[int, ...] = SELFCHECK_HELD_OUT_SEEDS,
+                    piers: tuple[str, ...] = ("edefense", "table1"),
+                    layouts: tuple[str, ...] = ("full", "accel", "sparse"),
+                    shakings: tuple[str, ...] = ("strong", "just_yield"),
+                    fault_mps2: float = SELFCHECK_FAULT_MPS2) -> list[dict[str, Any]]:
+    """The output-error self-check (:mod:`pier_monitor.core.identify.selfcheck`) on clean
+    in-model field cases (its false alarms) and on the same windows with a sensor fault
+    (an offset step of ``fault_mps2`` in one level's relative acceleration from the middle
+    of the window, the level rotating with the seed; its detections), field route
+    (``method="field"``; ``auto`` is the same route on the accel and sparse layouts).
+    Every run says whether its seed was a tuning or a held-out one."""
+    out = []
+    for pier in piers:
+        for layout in layouts:
+            for shaking in shakings:
+                for split, seeds in (("tuning", tuning_seeds), ("held_out", held_out_seeds)):
+                    for seed in seeds:
+                        window, truth, theta = field_case(pier, layout, False, shaking, seed)
+                        info = dict(pier=pier, layout=layout, shaking=shaking, seed=seed,
+                                    split=split, method="field", hysteresis="bilinear")
+                        settings = PinnSettings(seed=seed, method="field")
+                        run = identify(window, settings)
+                        out.append(_selfcheck_entry(
+                            run, window, theta, truth,
+                            case=f"selfcheck_{pier}_{layout}_{shaking}_clean",
+                            variant="clean", **info))
+                        levels = np.flatnonzero(window.coverage.acceleration)
+                        level = int(levels[seed % levels.size])
+                        faulty = _with_sensor_fault(window, level, fault_mps2)
+                        run = identify(faulty, settings)
+                        out.append(_selfcheck_entry(
+                            run, faulty, theta, truth,
+                            case=f"selfcheck_{pier}_{layout}_{shaking}_sensor_fault",
+                            variant="sensor_fault", fault_level=level + 1,
+                            fault_mps2=fault_mps2, **info))
+    return out
+
+
 SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "solver": bench_solver,
     "ingest": bench_ingest,
@@ -430,6 +507,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "field": bench_field,
     "coverage": bench_coverage,
     "missed_damage": bench_missed_damage,
+    "selfcheck": bench_selfcheck,
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.
