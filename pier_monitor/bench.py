@@ -23,7 +23,9 @@ from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.identify.selfcheck import energy_indices, model_misfit
+from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, ENERGY_INDEX_MISFIT,
+                                                  MisfitEntry, MisfitLimits, energy_indices,
+                                                  judge_misfit, model_misfit)
 from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import PierConfig, SpringParameters, load_config
@@ -498,6 +500,91 @@ def bench_selfcheck(tuning_seeds: tuple[int, ...] = SELFCHECK_TUNING_SEEDS,
     return out
 
 
+def _judged(run: dict[str, Any], limits: MisfitLimits) -> str:
+    """The misfit kind of a self-check run under ``limits`` (from its raw entries)."""
+    if not run["misfit"]["entries"]:
+        return run["misfit"]["kind"]  # the simulation failed: a model misfit
+    entries = [MisfitEntry(e["level"], e["quantity"], _nan_none(e["misfit_rel"]), 0.0,
+                           _nan_none(e["systematic_r2"]), _nan_none(e["noise_rel"]),
+                           _nan_none(e["offset_rel"])) for e in run["misfit"]["entries"]]
+    return judge_misfit(entries, limits).kind
+
+
+def _nan_none(value: float | None) -> float:
+    return float("nan") if value is None else float(value)
+
+
+def _ceil_to(value: float, step: float) -> float:
+    return float(np.ceil(value / step - 1e-9) * step)
+
+
+def calibrate_selfcheck(runs: list[dict[str, Any]]) -> dict[str, float]:
+    """Thresholds of the self-check from the clean runs of the tuning seeds: 1.5 times the
+    largest clean misfit (rounded up to 0.05) and offset (rounded up to 0.01, at least
+    0.02); the energy index that promotes, 1.5 times the largest of the sections that
+    truly stayed elastic (rounded up to 0.1), and the one under a model misfit, half of it."""
+    clean = [r for r in runs if r["split"] == "tuning" and r["variant"] == "clean"]
+    entries = [e for r in clean for e in r["misfit"]["entries"]]
+    misfit = max((e["misfit_rel"] for e in entries if e["misfit_rel"] is not None),
+                 default=0.0)
+    offset = max((e["offset_rel"] for e in entries if e["offset_rel"] is not None),
+                 default=0.0)
+    elastic = [e for r in clean if "true_df" in r
+               for e, d in zip(r["energy_index"], r["true_df"]) if d < 1.0 and np.isfinite(e)]
+    energy = _ceil_to(1.5 * max(elastic, default=0.0), 0.1)
+    return {"model_rel": _ceil_to(1.5 * misfit, 0.05), "offset_rel": max(
+        0.02, _ceil_to(1.5 * offset, 0.01)), "energy_index_large": energy,
+        "energy_index_misfit": 0.5 * energy}
+
+
+def summarize_selfcheck(runs: list[dict[str, Any]], limits: MisfitLimits | None = None
+                        ) -> dict[str, Any]:
+    """Rates of the self-check per split (tuning / held-out) and variant under ``limits``
+    (default: the product's): false alarms on the clean runs, detections (fires) and
+    right attributions (``sensor`` for a sensor fault, ``model`` for a model the
+    identifier does not assume) on the others; and, over the sections, how often a section
+    that truly stayed elastic (DF < 1) reaches the promoting energy index."""
+    limits = limits or MisfitLimits()
+    out: dict[str, Any] = {"case": "selfcheck_summary", "limits": dataclasses.asdict(limits),
+                           "energy_index_large": ENERGY_INDEX_LARGE,
+                           "energy_index_misfit": ENERGY_INDEX_MISFIT,
+                           "calibrated_on_tuning": calibrate_selfcheck(runs),
+                           "tuning_seeds": sorted({r["seed"] for r in runs
+                                                   if r["split"] == "tuning"}),
+                           "held_out_seeds": sorted({r["seed"] for r in runs
+                                                     if r["split"] == "held_out"}),
+                           "rates": {}, "wall_s": 0.0, "device": "cpu"}
+    expected = {"clean": "none", "sensor_fault": "sensor", "rc": "model"}
+    for split in ("tuning", "held_out"):
+        for variant in ("clean", "sensor_fault", "rc"):
+            sel = [r for r in runs if r["split"] == split and r["variant"] == variant]
+            if not sel:
+                continue
+            kinds = [_judged(r, limits) for r in sel]
+            fires = sum(k != "none" for k in kinds)
+            entry = {"runs": len(sel), "fires": fires, "fire_rate": fires / len(sel),
+                     "kind_as_expected": sum(k == expected[variant] for k in kinds),
+                     "by_layout": {}}
+            for layout in sorted({r["layout"] for r in sel}):
+                ks = [k for k, r in zip(kinds, sel) if r["layout"] == layout]
+                entry["by_layout"][layout] = {"runs": len(ks),
+                                              "fires": sum(k != "none" for k in ks)}
+            elastic = [e for r in sel if "true_df" in r
+                       for e, d in zip(r["energy_index"], r["true_df"]) if d < 1.0]
+            if elastic:
+                entry["elastic_sections"] = len(elastic)
+                entry["elastic_sections_over_energy_large"] = int(sum(
+                    e >= ENERGY_INDEX_LARGE for e in elastic if e is not None))
+            out["rates"][f"{split}/{variant}"] = entry
+    return out
+
+
+def _selfcheck_suite() -> list[dict[str, Any]]:
+    """The ``selfcheck`` suite: :func:`bench_selfcheck` and its summary (last entry)."""
+    runs = bench_selfcheck()
+    return [*runs, summarize_selfcheck(runs)]
+
+
 SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "solver": bench_solver,
     "ingest": bench_ingest,
@@ -507,7 +594,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "field": bench_field,
     "coverage": bench_coverage,
     "missed_damage": bench_missed_damage,
-    "selfcheck": bench_selfcheck,
+    "selfcheck": _selfcheck_suite,
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.
@@ -534,6 +621,18 @@ def format_table(results: list[dict[str, Any]]) -> str:
                          f"{r['ingest_s']:.2f} s = {r['per_60s_of_data_s']:.2f} s per 60 s of "
                          f"data; streamed in 0.1 s blocks {r['stream_s']:.1f} s; windows "
                          f"{r['windows']} (stream {r['stream_windows']})")
+    summary = [r for r in results if r["case"] == "selfcheck_summary"]
+    for r in summary:
+        lines.append(f"self-check (tuning seeds {r['tuning_seeds']}, held-out seeds "
+                     f"{r['held_out_seeds']}; limits {r['limits']}, energy index "
+                     f"{r['energy_index_large']:g} / {r['energy_index_misfit']:g} under a "
+                     f"misfit; calibrated on tuning: {r['calibrated_on_tuning']})")
+        lines.append(f"  {'split/variant':<24} {'runs':>5} {'fires':>6} {'rate':>6} "
+                     f"{'kind ok':>8}  by layout (fires/runs)")
+        for key, e in r["rates"].items():
+            layouts = ", ".join(f"{k} {v['fires']}/{v['runs']}" for k, v in e["by_layout"].items())
+            lines.append(f"  {key:<24} {e['runs']:>5} {e['fires']:>6} {e['fire_rate']:>6.0%} "
+                         f"{e['kind_as_expected']:>8}  {layouts}")
     ident = [r for r in results if "mae_pct" in r]
     if ident:
         lines.append("")

@@ -31,17 +31,24 @@ Per level and quantity it gives (:class:`MisfitEntry`):
     loops leave residuals that follow the response (a shifted phase, a changed amplitude),
     ``R²`` near 1; noise and a sensor fault (an offset step, a spike) do not, ``R²`` near 0.
 
-The check *fires* when a level's misfit exceeds its allowance (:attr:`ModelMisfit.fires`).
-It then says what kind of misfit it is (:attr:`ModelMisfit.kind`):
+and, for accelerations, ``offset``: the RMS of the residual's moving mean over
+``limits.offset_span_s`` (4 s, several periods of the pier) relative to ``rms(meas)``.  A
+relative acceleration has no lasting mean; an accelerometer's offset or step has.
+
+The check *fires* (:attr:`ModelMisfit.fires`) when a level's misfit exceeds its allowance or
+a level's offset stands out, and says what kind of misfit it is (:attr:`ModelMisfit.kind`):
 
 ``"sensor"``
-    the misfit is at one level only and the response does not explain it
-    (``systematic < limits.systematic``): a sensor at that level, not the physics, is
-    suspect; the result is unreliable;
+    a level's offset exceeds ``limits.offset_rel`` and is either half its misfit or more, or
+    three times the other levels' offsets or more; or the misfit is at one level only and
+    the response does not explain it (``systematic < limits.systematic``).  A sensor at that
+    level, not the physics, is suspect; the result is unreliable (the identification was
+    misled by the sensor: its states are no diagnosis);
 ``"model"``
-    anything else (several levels, or a residual that follows the response): the bilinear
-    model does not follow the pier; the states can only go up
-    (:func:`~pier_monitor.core.identify.damage.decide_state`).
+    any other misfit (several levels, or a residual that follows the response): the
+    bilinear model does not follow the pier; the states can only go up
+    (:func:`~pier_monitor.core.identify.damage.decide_state`, rules 5-6), with the reason
+    ``model misfit: ...`` and its size.
 
 :func:`energy_indices` is the damage indicator that does not depend on the spring family:
 the hysteretic energy of every section's moment–rotation loop, normalised by the elastic
@@ -102,7 +109,11 @@ class MisfitLimits:
     offset_share : float
         ... when that moving mean is also at least this share of the residual's RMS (a
         model's residual oscillates with the response, a long-period one leaves a little of
-        itself in the moving mean).
+        itself in the moving mean), or
+    offset_contrast : float
+        ... at least this many times the largest offset of the other levels (a faulty
+        sensor misleads the identification, whose model then misfits every level; the
+        faulty level's offset still stands out).
     offset_span_s : float
         Span of that moving mean, s.
     internal_dt : float
@@ -114,6 +125,7 @@ class MisfitLimits:
     systematic: float = 0.3
     offset_rel: float = 0.05
     offset_share: float = 0.5
+    offset_contrast: float = 3.0
     offset_span_s: float = 4.0
     internal_dt: float = 0.001
 
@@ -343,7 +355,11 @@ def judge_misfit(entries: list[MisfitEntry] | tuple[MisfitEntry, ...], limits: M
                                 e.offset)
                     for e in entries)
     offsets = [e for e in entries if not math.isfinite(e.offset) or (
-        e.offset > limits.offset_rel and e.offset > limits.offset_share * e.misfit)]
+        e.offset > limits.offset_rel and (
+            e.offset > limits.offset_share * e.misfit
+            or e.offset > limits.offset_contrast * max(
+                (o.offset for o in entries if o.level != e.level and math.isfinite(o.offset)),
+                default=0.0)))]
     bad = [e for e in entries if e.exceeded]
     if offsets:  # a lasting mean in a relative acceleration: no structure does that
         reasons = tuple(
