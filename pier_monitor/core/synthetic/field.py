@@ -32,7 +32,7 @@ table1     just_yield   1.35, 0.98, 0.71, 0.53, 0.35, 0.18
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping
 
 from pier_monitor.core.errors import InputDataError
@@ -40,6 +40,7 @@ from pier_monitor.core.model.config import PierConfig, load_config
 from pier_monitor.core.resources import find_config_file
 from pier_monitor.core.synthetic.layouts import layout_config
 from pier_monitor.core.synthetic.measurement import SensorImperfections
+from pier_monitor.core.synthetic.rc import HYSTERESIS_FAMILIES
 from pier_monitor.core.synthetic.shaking_table import (DEFAULT_START_NS, RunSpec, Scenario,
                                                        SyntheticRecording, edefense_scenario,
                                                        generate_recording)
@@ -68,12 +69,15 @@ class FieldPier:
         Configuration shipped with the package (full sensor map).
     runs : dict of str to RunSpec
         The run of each shaking.
+    rc_pga_mps2 : dict of str to float
+        Table PGA of each shaking on the RC test-bed (RC springs), m/s².
     """
 
     name: str
     pier_id: str
     config_file: str
     runs: Mapping[str, RunSpec]
+    rc_pga_mps2: Mapping[str, float]
 
 
 _EDEFENSE_AS_BUILT = dict(k1_factors=(1.0, 0.95, 1.05, 0.8), fy_factors=(1.05, 1.0, 1.0, 1.0))
@@ -85,12 +89,12 @@ FIELD_PIERS = {
                           **_EDEFENSE_AS_BUILT),
         "just_yield": RunSpec("just_yield", pga_mps2=3.5, duration_s=_RECORD_S, motion_seed=7,
                               **_EDEFENSE_AS_BUILT),
-    }),
+    }, {"strong": 4.0, "just_yield": 3.0}),
     "table1": FieldPier("table1", "table1", "table1_field.yaml", {
         "strong": RunSpec("strong", pga_mps2=3.0, duration_s=_RECORD_S, motion_seed=7),
         "just_yield": RunSpec("just_yield", pga_mps2=1.15, duration_s=_RECORD_S,
                               motion_seed=1994),
-    }),
+    }, {"strong": 3.0, "just_yield": 1.15}),
 }
 
 
@@ -110,7 +114,8 @@ def field_pier(pier: str) -> FieldPier:
 
 
 def field_scenario(pier: str = "edefense", shaking: str = "strong", *, lead_s: float = 20.0,
-                   tail_s: float = 20.0, start_ns: int = DEFAULT_START_NS) -> Scenario:
+                   tail_s: float = 20.0, start_ns: int = DEFAULT_START_NS,
+                   hysteresis: str = "bilinear") -> Scenario:
     """A one-run earthquake on a field pier (see the module docstring for the damage).
 
     Parameters
@@ -123,22 +128,33 @@ def field_scenario(pier: str = "edefense", shaking: str = "strong", *, lead_s: f
         Quiet (ambient) recording before and after the 40 s record, s.
     start_ns : int
         Time of the first sample, ns since the Unix epoch.
+    hysteresis : str
+        ``bilinear``, or an RC family: then the record is scaled to the pier's
+        ``rc_pga_mps2`` (the RC test-bed's damage, :mod:`~pier_monitor.core.synthetic.rc`).
 
     Raises
     ------
     InputDataError
-        If the pier or the shaking is unknown.
+        If the pier, the shaking or the hysteresis is unknown.
     """
     if shaking not in SHAKINGS:
         raise InputDataError(f"shaking: expected one of {list(SHAKINGS)}, got {shaking!r}")
-    run = field_pier(pier).runs[shaking]
+    if hysteresis not in HYSTERESIS_FAMILIES:
+        raise InputDataError(f"hysteresis: expected one of {list(HYSTERESIS_FAMILIES)}, got "
+                             f"{hysteresis!r}")
+    spec = field_pier(pier)
+    run = spec.runs[shaking]
+    if hysteresis != "bilinear":
+        run = replace(run, pga_mps2=spec.rc_pga_mps2[shaking])
     return Scenario(runs=(run,), lead_s=lead_s, tail_s=tail_s, start_ns=start_ns)
 
 
-def named_scenario(name: str, pier_id: str) -> Scenario:
+def named_scenario(name: str, pier_id: str, hysteresis: str = "bilinear") -> Scenario:
     """A scenario by name: ``edefense`` (the two-run shaking-table test of the E-Defense-like
     pier, :func:`~pier_monitor.core.synthetic.shaking_table.edefense_scenario`), or a shaking
     of :func:`field_scenario` for the field pier ``pier_id``.
+
+    ``hysteresis`` picks the amplitudes of the RC test-bed for an RC family.
 
     Raises
     ------
@@ -146,16 +162,17 @@ def named_scenario(name: str, pier_id: str) -> Scenario:
         If the name is unknown, or the pier has no field scenario.
     """
     if name == "edefense":
-        return edefense_scenario()
+        return edefense_scenario(hysteresis=hysteresis)
     if name not in SHAKINGS:
         raise InputDataError(f"scenario: expected one of {list(SCENARIO_NAMES)}, got {name!r}")
-    return field_scenario(pier_id, name)
+    return field_scenario(pier_id, name, hysteresis=hysteresis)
 
 
 def field_recording(config: PierConfig, layout: str, scenario: Scenario, *, gnss: bool = False,
                     seed: int = 0,
                     imperfections: SensorImperfections | None = SensorImperfections(),
-                    intermediate_levels: tuple[int, ...] | None = None) -> SyntheticRecording:
+                    intermediate_levels: tuple[int, ...] | None = None,
+                    hysteresis: str = "bilinear") -> SyntheticRecording:
     """Record a scenario with a field layout of a pier's sensor map, as a field network would.
 
     The layout's configuration (:func:`~pier_monitor.core.synthetic.layouts.layout_config`)
@@ -179,15 +196,18 @@ def field_recording(config: PierConfig, layout: str, scenario: Scenario, *, gnss
         Spread of the sensor errors; ``None``: ideal sensors.
     intermediate_levels : tuple of int, optional
         Intermediate levels of the ``sparse`` layout (default: nearest mid-height).
+    hysteresis : {"bilinear", "takeda"}
+        Springs of the simulated pier (:func:`~pier_monitor.core.synthetic.shaking_table.
+        generate_recording`).
     """
     field = layout_config(config, layout, gnss, intermediate_levels)
     return generate_recording(field, scenario, seed=seed, imperfections=imperfections,
-                              anti_alias=True)
+                              anti_alias=True, hysteresis=hysteresis)
 
 
 def field_case_recording(pier: str, layout: str, gnss: bool = False, shaking: str = "strong",
-                         seed: int = 0, *, imperfections: SensorImperfections | bool = True
-                         ) -> SyntheticRecording:
+                         seed: int = 0, *, imperfections: SensorImperfections | bool = True,
+                         hysteresis: str = "bilinear") -> SyntheticRecording:
     """One case of the field benchmark, in memory: the recording and its ground truth.
 
     Parameters
@@ -205,6 +225,9 @@ def field_case_recording(pier: str, layout: str, gnss: bool = False, shaking: st
     imperfections : SensorImperfections or bool
         The sensors' errors: ``True`` the default :class:`SensorImperfections`, ``False``
         ideal sensors, or a :class:`SensorImperfections` of their own (e.g. no tilt or bias).
+    hysteresis : {"bilinear", "takeda"}
+        ``bilinear``: the identifier's own springs; ``takeda``: the RC test-bed, with its
+        amplitudes (``rc_pga_mps2``) and truth.
 
     Returns
     -------
@@ -216,5 +239,6 @@ def field_case_recording(pier: str, layout: str, gnss: bool = False, shaking: st
     config = load_config(find_config_file(spec.config_file))
     if isinstance(imperfections, bool):
         imperfections = SensorImperfections() if imperfections else None
-    return field_recording(config, layout, field_scenario(spec.name, shaking), gnss=gnss,
-                           seed=seed, imperfections=imperfections)
+    return field_recording(config, layout,
+                           field_scenario(spec.name, shaking, hysteresis=hysteresis), gnss=gnss,
+                           seed=seed, imperfections=imperfections, hysteresis=hysteresis)

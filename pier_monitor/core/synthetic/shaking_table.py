@@ -58,6 +58,9 @@ from pier_monitor.core.model.ground_motion import synthetic_near_fault
 from pier_monitor.core.model.link_model import natural_periods
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord, sample_times_ns
 from pier_monitor.core.model.solver import Response, simulate
+from pier_monitor.core.synthetic.rc import (HYSTERESIS_FAMILIES, RCSectionTruth, RCSprings,
+                                            RCState, integrate_rc, rc_springs_from_design,
+                                            rc_truth)
 from pier_monitor.core.synthetic.measurement import (ANTI_ALIAS_CUTOFF_FRACTION, ANTI_ALIAS_ORDER,
                                                      SensorError, SensorImperfections,
                                                      anti_alias_filter, draw_sensor_errors,
@@ -66,6 +69,7 @@ from pier_monitor.core.synthetic.measurement import (ANTI_ALIAS_CUTOFF_FRACTION,
 __all__ = [
     "DEFAULT_START_NS",
     "DEFAULT_PRINCIPAL_DIRECTION_DEG",
+    "RC_EDEFENSE_PGA_MPS2",
     "RunSpec",
     "Scenario",
     "RunTruth",
@@ -83,6 +87,8 @@ DEFAULT_START_NS = 1_710_205_200 * NS_PER_S
 DEFAULT_PRINCIPAL_DIRECTION_DEG = 196.0
 
 _INTERNAL_DT_S = 0.001  # SPEC §3: Newmark internal step
+#: Table PGAs (m/s²) of the two runs of :func:`edefense_scenario` with RC springs.
+RC_EDEFENSE_PGA_MPS2 = (3.7, 5.5)
 _RESPONSE_KEYS = ("t", "ag", "x", "v", "a", "theta", "moment")
 _TABLE_KEYS = ("table_velocity", "ag_transverse", "ag_vertical")
 
@@ -227,7 +233,8 @@ class Scenario:
 
 def edefense_scenario(*, record_s: float = 40.0, lead_s: float = 20.0, gap_s: float = 30.0,
                       tail_s: float = 20.0, start_ns: int = DEFAULT_START_NS,
-                      motion_seeds: tuple[int, int] | None = (1994, 1995)) -> Scenario:
+                      motion_seeds: tuple[int, int] | None = (1994, 1995),
+                      hysteresis: str = "bilinear") -> Scenario:
     """The default two-run test of ``config/edefense_like.yaml`` (paper section 7).
 
     Run 1: the as-built pier (k1 within ±5 % of design at 0-6 m, the top section about 20 %
@@ -255,15 +262,23 @@ def edefense_scenario(*, record_s: float = 40.0, lead_s: float = 20.0, gap_s: fl
         Time of the first sample, ns since the Unix epoch.
     motion_seeds : tuple of two int, or None
         Seeds of the two runs' table records; ``None``: derived from the generator's seed.
+    hysteresis : str
+        ``bilinear``: the runs above.  An RC family (:mod:`~pier_monitor.core.synthetic.rc`):
+        the same records scaled to :data:`RC_EDEFENSE_PGA_MPS2`, chosen so that run 1 just
+        yields the base of the RC pier and run 2 damages it heavily (see that module).
     """
+    if hysteresis not in HYSTERESIS_FAMILIES:
+        raise InputDataError(f"hysteresis: expected one of {list(HYSTERESIS_FAMILIES)}, got "
+                             f"{hysteresis!r}")
+    pga = (3.5, 5.5) if hysteresis == "bilinear" else RC_EDEFENSE_PGA_MPS2
     seeds = (None, None) if motion_seeds is None else tuple(int(s) for s in motion_seeds)
     if len(seeds) != 2:
         raise InputDataError(f"motion_seeds: expected two seeds (one per run), got {motion_seeds}")
     runs = (
-        RunSpec("run1", pga_mps2=3.5, duration_s=record_s,
+        RunSpec("run1", pga_mps2=pga[0], duration_s=record_s,
                 k1_factors=(1.0, 0.95, 1.05, 0.8), fy_factors=(1.05, 1.0, 1.0, 1.0),
                 motion_seed=seeds[0]),
-        RunSpec("run2", pga_mps2=5.5, duration_s=record_s,
+        RunSpec("run2", pga_mps2=pga[1], duration_s=record_s,
                 k1_factors=(0.87, 0.83, 1.05, 0.8), fy_factors=(0.89, 0.78, 1.0, 1.0),
                 c_factors=(0.75, 0.75, 1.0, 1.0), added_top_mass_kg=52_000.0,
                 motion_seed=seeds[1]),
@@ -312,6 +327,16 @@ class RunTruth:
         Peak principal table acceleration over the record (idle motion included), m/s².
     motion_seeds : tuple of int
         Seeds of the principal, transverse and vertical records.
+    rc : RCSectionTruth or None
+        With RC springs (``hysteresis`` other than ``bilinear``): the per-section truth an
+        engineer compares with (:mod:`~pier_monitor.core.synthetic.rc`); then
+        ``ductility_factors`` are its idealised ductility factors, ``params`` the as-built
+        bilinear design the springs derive from, ``response.theta`` the springs' true angles
+        (``B (initial_offset_m + response.x)``: they include the residual rotation).
+    rc_springs : RCSprings or None
+        The RC springs of the run.
+    rayleigh : tuple of float or None
+        ``(a0, a1)`` of the Rayleigh damping matrix ``a0 M + a1 K0`` of an RC run, 1/s and s.
     """
 
     name: str
@@ -331,6 +356,9 @@ class RunTruth:
     periods_s: np.ndarray
     pga_mps2: float
     motion_seeds: tuple[int, int, int]
+    rc: RCSectionTruth | None = None
+    rc_springs: RCSprings | None = None
+    rayleigh: tuple[float, float] | None = None
 
     @property
     def window_response(self) -> Response:
@@ -364,6 +392,10 @@ class RunTruth:
             "max_abs_displacement_m": np.max(np.abs(self.response.x), axis=0).tolist(),
             "residual_displacement_m": self.response.x[-1].tolist(),
             "initial_offset_m": self.initial_offset_m.tolist(),
+            **({} if self.rc is None else {
+                "rc": self.rc.as_dict(),
+                "rc_springs": self.rc_springs.as_dict(),  # type: ignore[union-attr]
+                "rayleigh_a0_per_s_a1_s": list(self.rayleigh or ())}),
         }
 
 
@@ -396,6 +428,9 @@ class SyntheticTruth:
         The errors actually drawn, by sensor id (empty without imperfections).
     anti_alias : bool
         Whether every sensor low-passed its signal before sampling it.
+    hysteresis : str
+        Spring family of the principal response: ``bilinear`` (the identifier's own model)
+        or an RC family of :mod:`~pier_monitor.core.synthetic.rc`.
     """
 
     seed: int
@@ -410,6 +445,7 @@ class SyntheticTruth:
     imperfections: SensorImperfections | None = None
     sensor_errors: Mapping[str, SensorError] = dataclasses.field(default_factory=dict)
     anti_alias: bool = False
+    hysteresis: str = "bilinear"
 
     def run(self, name: str) -> RunTruth:
         """The run with this name; :class:`InputDataError` if there is none."""
@@ -574,7 +610,8 @@ def _motion_vectors(principal_direction_deg: float, table: np.ndarray, table_vel
 def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, seed: int = 0,
                        principal_direction_deg: float | None = None,
                        imperfections: SensorImperfections | None = None,
-                       anti_alias: bool = False) -> SyntheticRecording:
+                       anti_alias: bool = False, hysteresis: str = "bilinear",
+                       rayleigh_zeta: float = 0.03) -> SyntheticRecording:
     """Simulate a shaking-table test of the pier and record it with its sensor map.
 
     Parameters
@@ -600,6 +637,18 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         Low-pass every sensor's signal at 0.4 × its rate on the simulation's 1 ms signal
         before sampling it (:func:`~pier_monitor.core.synthetic.measurement.anti_alias_filter`).
         Default: sample the signal as it is.
+    hysteresis : {"bilinear", "takeda"}
+        Springs of the principal response.  ``bilinear``: the link model the identifier
+        assumes (:func:`~pier_monitor.core.model.solver.simulate`, per-spring dampers).
+        ``takeda``: the RC test-bed (:func:`~pier_monitor.core.synthetic.rc.integrate_rc`):
+        modified-Takeda springs derived from the first run's parameters
+        (:func:`~pier_monitor.core.synthetic.rc.rc_springs_from_design`) and Rayleigh
+        damping; the springs' state (cracks, yielding, strength loss) and the displacements
+        carry from one run to the next, so the later runs' k1/k2/fy/c factors are not used
+        (their added mass is).  The transverse response stays the elastic bilinear model.
+    rayleigh_zeta : float
+        Damping ratio of the Rayleigh matrix of RC springs (modes 1 and 2 of the uncracked
+        pier).
 
     Returns
     -------
@@ -612,8 +661,12 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
     InputDataError
         If the configuration has no sensors, or the scenario or rate cannot be simulated.
     """
+    if hysteresis not in HYSTERESIS_FAMILIES:
+        raise InputDataError(f"hysteresis: expected one of {list(HYSTERESIS_FAMILIES)}, got "
+                             f"{hysteresis!r}")
+    rc = hysteresis != "bilinear"
     if scenario is None:
-        scenario = edefense_scenario()
+        scenario = edefense_scenario(hysteresis=hysteresis)
     if not config.sensors:
         raise InputDataError(f"pier {config.pier_id}: the configuration has no sensor map; "
                              "nothing to record")
@@ -639,6 +692,11 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
     # the runs' piers first: a bad factor fails before anything is simulated
     piers = [(run.geometry(config.geometry), run.parameters(config.design))
              for run in scenario.runs]
+    springs: RCSprings | None = None
+    rc_state: RCState | None = None
+    if rc:  # one pier through every run: damage is the springs' state, not new parameters
+        piers = [(geometry, piers[0][1]) for geometry, _ in piers]
+        springs = rc_springs_from_design(piers[0][1], family=hysteresis)
 
     root = np.random.SeedSequence(seed)
     ambient_seq, noise_seq, *run_seqs = root.spawn(2 + len(scenario.runs))
@@ -669,8 +727,18 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
     for i, (run, (seeds, comps), s0) in enumerate(zip(scenario.runs, records, starts)):
         b0, b1 = bounds[i] * up, bounds[i + 1] * up
         geometry, params = piers[i]
-        resp = simulate(geometry, params, table_m[b0:b1, 0], dt_m, dt=_INTERNAL_DT_S,
-                        output_dt=dt_m, v0=v_end)
+        rc_run = None
+        if springs is None:
+            resp = simulate(geometry, params, table_m[b0:b1, 0], dt_m, dt=_INTERNAL_DT_S,
+                            output_dt=dt_m, v0=v_end)
+        else:  # starts where the last segment ended: displaced, with its cracks and yielding
+            rc_run = integrate_rc(geometry, springs, table_m[b0:b1, 0], dt_m,
+                                  dt=_INTERNAL_DT_S, output_dt=dt_m, x0=offset, v0=v_end,
+                                  state=rc_state, rayleigh_zeta=rayleigh_zeta)
+            rc_state = rc_run.state_end
+            resp = rc_run.response
+            # the segment's displacements relative to where it started, as for bilinear runs
+            resp = dataclasses.replace(resp, x=resp.x - offset)
         resp_t = simulate(geometry, _elastic(params), table_m[b0:b1, 1], dt_m,
                           dt=_INTERNAL_DT_S, x0=xt_end, v0=vt_end, output_dt=dt_m)
         rel["xp"][b0:b1] = resp.x + offset
@@ -685,6 +753,8 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         response = Response(t=np.arange(n_rec) * dt, ag=resp.ag[sel], x=resp.x[sel],
                             v=resp.v[sel], a=resp.a[sel], theta=resp.theta[sel],
                             moment=resp.moment[sel])
+        truth_rc = None if rc_run is None else rc_truth(springs, rc_run.state_start,
+                                                        rc_run.state_end)
         w0, w1 = _arias_window(response.ag, rate, scenario.window_pre_s, scenario.window_post_s)
         start_ns = int(times[s0])
         run_truths.append(RunTruth(
@@ -701,10 +771,14 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
             ag_transverse=table[s0:s0 + n_rec, 1].copy(),
             ag_vertical=table[s0:s0 + n_rec, 2].copy(),
             initial_offset_m=offset.copy(),
-            ductility_factors=ductility_factors(response.theta, params),
+            ductility_factors=(ductility_factors(response.theta, params) if truth_rc is None
+                               else truth_rc.ductility_factor),
             periods_s=natural_periods(geometry, params),
             pga_mps2=float(np.max(np.abs(response.ag))),
             motion_seeds=seeds,
+            rc=truth_rc,
+            rc_springs=springs,
+            rayleigh=None if rc_run is None else rc_run.rayleigh,
         ))
         offset = offset + resp.x[-1]
         v_end, xt_end, vt_end = resp.v[-1], resp_t.x[-1], resp_t.v[-1]
@@ -735,7 +809,8 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         principal_direction_deg=float(principal_direction_deg), sample_rate_hz=rate,
         start_ns=int(times[0]), end_ns=end_ns, runs=tuple(run_truths),
         noise_rms={s.sensor_id: s.noise_rms for s in config.sensors}, scenario=scenario,
-        imperfections=imperfections, sensor_errors=errors, anti_alias=anti_alias)
+        imperfections=imperfections, sensor_errors=errors, anti_alias=anti_alias,
+        hysteresis=hysteresis)
     # the operators record added deck mass as a configuration update before the run
     updates = tuple((int(times[bounds[i]]), dataclasses.replace(config, geometry=piers[i][0]))
                     for i in range(1, len(piers)) if piers[i][0] != config.geometry)
@@ -781,6 +856,20 @@ def _truth_json(truth: SyntheticTruth, config: PierConfig | None) -> dict[str, A
         "noise": noise,
         "scenario": truth.scenario.as_dict(),
     }
+    if truth.hysteresis != "bilinear":  # RC test-bed only: bilinear truth files unchanged
+        out["hysteresis"] = truth.hysteresis
+        out["conventions"]["ductility_factor"] = (
+            "RC springs: peak |theta_n| / idealised yield rotation (equal-energy bilinear of "
+            "the skeleton up to the peak, elastic branch through first yield); details per "
+            "run under 'rc'")
+        out["conventions"]["rc"] = (
+            "per section, bottom to top: peak rotation so far, idealised yield rotation, DF, "
+            "first-yield rotation and whether it was passed (reinforcement yielded), "
+            "cracking, energy dissipated in the run's segment (J), small-amplitude "
+            "(unloading) stiffness at the segment's start and end (N*m/rad), strength factor; "
+            "theta in the .npz is the springs' true angle (residual rotation included), "
+            "params are the as-built bilinear design the springs derive from, damping is "
+            "the Rayleigh matrix a0 M + a1 K0 (c is not used)")
     # measurement realism, only when used (the shaking-table truth files stay as they were)
     if truth.anti_alias:
         out["anti_alias"] = {
@@ -799,6 +888,14 @@ def _truth_json(truth: SyntheticTruth, config: PierConfig | None) -> dict[str, A
             sid: err.as_dict(config.sensor(sid) if sid in units else None)  # type: ignore[union-attr]
             for sid, err in truth.sensor_errors.items()}
     return out
+
+
+def _springs_from_dict(d: Mapping[str, Any]) -> RCSprings:
+    return RCSprings(k0=np.array(d["k0_Nm_per_rad"]), mc=np.array(d["mc_Nm"]),
+                     my=np.array(d["my_Nm"]), theta_y=np.array(d["theta_y_rad"]),
+                     kp=np.array(d["kp_Nm_per_rad"]), theta_u=np.array(d["theta_u_rad"]),
+                     alpha=d["alpha"], pinch_x=d["pinch_x"], pinch_y=d["pinch_y"],
+                     beta_e=d["beta_e"], d_min=d["d_min"], family=d["family"])
 
 
 _SCALAR_LIST = re.compile(r"\[\s*([^\[\]{}]*?)\s*\]", re.DOTALL)
@@ -876,6 +973,10 @@ def load_truth(npz_path: str | Path, json_path: str | Path) -> SyntheticTruth:
                 periods_s=np.array(r["periods_s"]),
                 pga_mps2=float(r["pga_mps2"]),
                 motion_seeds=tuple(int(s) for s in r["motion_seeds"]),
+                **({} if "rc" not in r else dict(
+                    rc=RCSectionTruth.from_dict(r["rc"]),
+                    rc_springs=_springs_from_dict(r["rc_springs"]),
+                    rayleigh=tuple(float(v) for v in r["rayleigh_a0_per_s_a1_s"]))),
             ))
         imperfections = meta.get("imperfections")
         return SyntheticTruth(
@@ -888,7 +989,8 @@ def load_truth(npz_path: str | Path, json_path: str | Path) -> SyntheticTruth:
             imperfections=None if imperfections is None else SensorImperfections(**imperfections),
             sensor_errors={k: SensorError.from_dict(v)
                            for k, v in meta.get("sensor_errors", {}).items()},
-            anti_alias="anti_alias" in meta)
+            anti_alias="anti_alias" in meta,
+            hysteresis=meta.get("hysteresis", "bilinear"))
     except (KeyError, TypeError) as err:
         raise InputDataError(f"{json_path.name}: incomplete synthetic truth ({err!r} missing "
                              "or malformed)") from err
