@@ -46,7 +46,7 @@ def test_the_true_model_does_not_fire_on_clean_data(cases, run):
     assert len(misfit.entries) == 2 * window.n_levels
     # what is left is the sensors' errors (1 % gains, azimuths, tilts): far below the limit
     assert max(e.misfit for e in misfit.entries) < MisfitLimits().model_rel
-    assert max(e.offset for e in misfit.entries) < 0.2 * MisfitLimits().offset_rel
+    assert max(e.offset for e in misfit.entries) < 0.5 * MisfitLimits().offset_rel
     assert misfit.simulated is not None and misfit.simulated.a.shape == window.a.shape
 
 
@@ -122,7 +122,7 @@ def test_a_model_misfit_with_a_large_energy_makes_a_section_at_least_suspicious(
     softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
     sim = simulate_identified(window, softer)
     misfit = model_misfit(dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x), truth)
-    energy = np.array([3.0, 0.6, 0.1, 0.0])
+    energy = np.array([3.0, 0.9 * ENERGY_INDEX_LARGE, 0.1, 0.0])
     evidence = section_evidence(misfit, energy)
     # the base: large energy and its level misfits; section 2 by its level; all by misfit
     assert any("dissipated energy" in r for r in evidence[0])
@@ -142,7 +142,8 @@ def test_a_model_misfit_with_a_large_energy_makes_a_section_at_least_suspicious(
 def test_without_a_misfit_only_a_large_energy_promotes(cases):
     window, truth, _ = cases[1]
     misfit = model_misfit(window, truth)
-    energy = np.array([ENERGY_INDEX_LARGE + 0.5, 0.6, 0.1, 0.0])
+    energy = np.array([ENERGY_INDEX_LARGE + 0.5, 0.9 * ENERGY_INDEX_LARGE, 0.1 * ENERGY_INDEX_LARGE,
+                       0.0])
     evidence = section_evidence(misfit, energy)
     assert evidence[1:] == [(), (), ()]
     result = _intact_result(window, truth).with_evidence(energy, evidence, misfit.as_dict())
@@ -172,3 +173,17 @@ def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unrelia
     assert any(r.startswith("suspect sensor at level 3: ")
                for r in outcome.result.unreliable_reasons)
     assert {s.state for s in outcome.result.sections} == {"unreliable"}
+
+
+def test_in_a_sparse_layout_a_section_answers_to_the_next_measured_level_up():
+    from pier_monitor.core.identify.selfcheck import MisfitEntry, judge_misfit
+    limits = MisfitLimits()
+    entries = [MisfitEntry(2, "acceleration", 0.9, 0.0, 0.5, 0.01, 0.01),
+               MisfitEntry(4, "acceleration", 0.1, 0.0, 0.5, 0.01, 0.01),
+               MisfitEntry(6, "acceleration", 0.8, 0.0, 0.5, 0.01, 0.01)]
+    misfit = judge_misfit(entries, limits)
+    assert misfit.kind == "model" and misfit.entries[0].allowed == limits.model_rel
+    evidence = section_evidence(misfit, np.zeros(6))
+    # sections 1-2 carry level 2's motion, 3-4 level 4's, 5-6 level 6's
+    assert [bool(ev) for ev in evidence] == [True, True, False, False, True, True]
+    assert "level 2's acceleration by 90% RMS" in evidence[0][0]

@@ -12,6 +12,10 @@ compares the simulation with what was measured:
   (``window.coverage.acceleration``), in every layout;
 * the displacement of the levels with a displacement sensor (``window.coverage.displacement``).
 
+The point estimate is simulated, not every member of an ensemble: the members differ by
+what the data allow, and a misfit of the point estimate beyond the noise model is one of
+the model, not of the scatter.
+
 Per level and quantity it gives (:class:`MisfitEntry`):
 
 ``misfit``
@@ -23,7 +27,8 @@ Per level and quantity it gives (:class:`MisfitEntry`):
     sensors' relative gain uncertainty (a floor proportional to the signal).
     ``model_rel`` is the output error of a correct bilinear model identified from noisy
     data (its parameters are off by their own scatter); it was chosen on the tuning seeds
-    of the ``selfcheck`` benchmark;
+    of the ``selfcheck`` benchmark (1.5 times the largest clean misfit there, 0.35 at the
+    base level of the Table 1 pier, whose relative acceleration is the smallest);
 ``systematic``
     the share of the residual's energy that the measured response explains: the ``R²`` of a
     least-squares fit of the residual by the measured response, its derivative and its
@@ -70,16 +75,19 @@ from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.solver import Response, simulate
 
 __all__ = ["MisfitLimits", "MisfitEntry", "ModelMisfit", "simulate_identified",
-           "model_misfit", "judge_misfit", "allowed_misfit", "check_model_misfit", "energy_indices", "ENERGY_INDEX_LARGE",
+           "model_misfit", "judge_misfit", "allowed_misfit", "energy_indices", "ENERGY_INDEX_LARGE",
            "ENERGY_INDEX_MISFIT", "SelfCheck", "self_check", "section_evidence"]
 
 #: Energy index (hysteretic energy / elastic energy at the peak) above which a section has
-#: dissipated far more than damping errors and noise give an elastic section: it makes a
-#: section at least suspicious.  Elastic sections of the benchmark stay below 0.5 on
-#: clean data; a spring at DF 1.5 dissipates several times its peak elastic energy.
-ENERGY_INDEX_LARGE = 2.0
-#: Energy index above which a section is at least suspicious when the model misfits.
-ENERGY_INDEX_MISFIT = 0.5
+#: dissipated more than damping errors and noise give an elastic section: it makes a
+#: section at least suspicious.  Twice the largest index of the sections that stayed
+#: elastic (true DF < 1) on the clean tuning runs of the ``selfcheck`` benchmark (0.64, a
+#: spring at DF 0.98), rounded up; a bilinear spring at DF 1.35 reaches 0.5-2, at DF 3.2
+#: about 3.
+ENERGY_INDEX_LARGE = 1.3
+#: Energy index above which a section is at least suspicious when the model misfits (half
+#: of :data:`ENERGY_INDEX_LARGE`).
+ENERGY_INDEX_MISFIT = 0.65
 
 _NAMES = {"a": "acceleration", "x": "displacement"}
 
@@ -120,10 +128,10 @@ class MisfitLimits:
         Largest integration step of the simulation, s.
     """
 
-    model_rel: float = 0.35
+    model_rel: float = 0.55
     noise_factor: float = 3.0
     systematic: float = 0.3
-    offset_rel: float = 0.05
+    offset_rel: float = 0.02
     offset_share: float = 0.5
     offset_contrast: float = 3.0
     offset_span_s: float = 4.0
@@ -383,12 +391,6 @@ def judge_misfit(entries: list[MisfitEntry] | tuple[MisfitEntry, ...], limits: M
                        reasons=tuple(reasons), simulated=simulated)
 
 
-def check_model_misfit(window: MeasuredWindow, params: SpringParameters,
-                       limits: MisfitLimits | None = None) -> ModelMisfit:
-    """:func:`model_misfit`, named for the front door of the self-checks."""
-    return model_misfit(window, params, limits)
-
-
 def energy_indices(window: MeasuredWindow, params: SpringParameters, theta: np.ndarray,
                    a_rel: np.ndarray) -> np.ndarray:
     """Hysteretic energy of every section's moment–rotation loop, normalised; shape (N,).
@@ -442,12 +444,14 @@ def section_evidence(misfit: ModelMisfit, energy: np.ndarray, *,
 
     * energy index >= ``energy_large``: a large dissipated energy, whatever the misfit;
     * with a model misfit (``misfit.kind == "model"``): energy index >= ``energy_misfit``, or
-      the level on top of the section (level ``n`` for section ``n``) misfits beyond its
-      allowance: ``model misfit: ...`` with the size.
+      the nearest measured level at or above the section (level ``n`` for section ``n`` when
+      it is measured; in a sparse layout the next measured one up, whose motion the section
+      carries) misfits beyond its allowance: ``model misfit: ...`` with the size.
     """
     energy = np.asarray(energy, dtype=float)
     out: list[tuple[str, ...]] = []
     exceeded = {e.level: e for e in misfit.entries if e.exceeded}
+    measured = sorted({e.level for e in misfit.entries})
     worst = misfit.worst
     size = ("" if worst is None else
             f"{worst.misfit:.0%} RMS at level {worst.level} ({worst.quantity}, allowed "
@@ -459,11 +463,12 @@ def section_evidence(misfit: ModelMisfit, energy: np.ndarray, *,
             reasons.append(f"hysteretic energy {e:.2f} times the elastic energy at the peak "
                            f"(at least {energy_large:g}): the section dissipated energy")
         if misfit.kind == "model":
-            here = exceeded.get(i + 1)
+            above = next((lv for lv in measured if lv >= i + 1), None)
+            here = None if above is None else exceeded.get(above)
             if here is not None:
                 reasons.append(f"model misfit: the identified model departs from level "
-                               f"{i + 1}'s {here.quantity} by {here.misfit:.0%} RMS (allowed "
-                               f"{here.allowed:.0%})")
+                               f"{here.level}'s {here.quantity} by {here.misfit:.0%} RMS "
+                               f"(allowed {here.allowed:.0%})")
             elif math.isfinite(e) and e >= energy_misfit and not large:
                 reasons.append(f"model misfit ({size}) and hysteretic energy {e:.2f} times "
                                f"the elastic energy at the peak")
