@@ -23,6 +23,10 @@ from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, ENERGY_INDEX_MISFIT,
+                                                  MisfitEntry, MisfitLimits, ModelMisfit,
+                                                  energy_indices, judge_misfit, model_misfit,
+                                                  section_evidence)
 from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import PierConfig, SpringParameters, load_config
@@ -421,6 +425,239 @@ def bench_fleet(piers: int = 4, max_epochs: int = 100) -> list[dict[str, Any]]:
     return out
 
 
+#: Seeds of the self-check suite: thresholds are chosen on the tuning seeds
+#: (:class:`~pier_monitor.core.identify.selfcheck.MisfitLimits`) and scored on the held-out
+#: ones.
+SELFCHECK_TUNING_SEEDS = (300,)
+SELFCHECK_HELD_OUT_SEEDS = (302,)
+#: Held-out seeds of the RC test-bed runs of the self-check suite (a minute and more per
+#: run on two cores: one seed per pier, layout and shaking).
+SELFCHECK_RC_SEEDS = (302,)
+#: The sensor fault of the self-check suite: an offset step, m/s², in the relative
+#: acceleration of one level from the middle of the window.
+SELFCHECK_FAULT_MPS2 = 0.5
+
+
+def _selfcheck_entry(run: IdentificationRun, window: MeasuredWindow, theta_true: np.ndarray,
+                     truth: SpringParameters | None, **info: Any) -> dict[str, Any]:
+    """One self-check run: the misfit of the identified model, the energy indices, the true
+    DF (``truth`` None: the true DF is not a bilinear one and is left out)."""
+    params = run.result.params
+    misfit = model_misfit(window, params)
+    a_rel = np.where(window.coverage.acceleration, window.a, run.reproduced.a)
+    energy = energy_indices(window, params, run.reproduced.theta, a_rel)
+    out = {**info, "wall_s": run.result.wall_time_s, "device": run.result.device,
+           "misfit": misfit.as_dict(), "energy_index": [float(v) for v in energy],
+           "df": [float(v) for v in run.result.ductility_factors],
+           "states": [s.state for s in run.result.sections]}
+    if truth is not None:
+        out["true_df"] = [float(v) for v in np.abs(theta_true).max(axis=0)
+                          / truth.yield_angles]
+    return out
+
+
+def _with_sensor_fault(window: MeasuredWindow, level: int, offset_mps2: float
+                       ) -> MeasuredWindow:
+    """``window`` with an offset step in the relative acceleration of ``level`` (0-based)
+    from the middle of the window on."""
+    a = np.array(window.a)
+    a[window.t.size // 2:, level] += offset_mps2
+    return dataclasses.replace(window, a=a)
+
+
+def bench_selfcheck(tuning_seeds: tuple[int, ...] = SELFCHECK_TUNING_SEEDS,
+                    held_out_seeds: tuple[int, ...] = SELFCHECK_HELD_OUT_SEEDS,
+                    piers: tuple[str, ...] = ("edefense", "table1"),
+                    layouts: tuple[str, ...] = ("full", "accel", "sparse"),
+                    shakings: tuple[str, ...] = ("strong", "just_yield"),
+                    fault_mps2: float = SELFCHECK_FAULT_MPS2,
+                    variants: tuple[str, ...] = ("clean", "sensor_fault", "rc"),
+                    rc_seeds: tuple[int, ...] = SELFCHECK_RC_SEEDS) -> list[dict[str, Any]]:
+    """The output-error self-check (:mod:`pier_monitor.core.identify.selfcheck`) on clean
+    in-model field cases (its false alarms), on the same windows with a sensor fault (an
+    offset step of ``fault_mps2`` in one level's relative acceleration from the middle of
+    the window, the level rotating with the seed) and on the RC test-bed (modified-Takeda
+    springs with pinching, Rayleigh damping: a model the identifier does not assume;
+    ``rc_seeds`` only, held out: nothing is tuned on it).  Field route (``method="field"``; ``auto`` is the
+    same route on the accel and sparse layouts).  Every run says whether its seed was a
+    tuning or a held-out one."""
+    out = []
+    for pier in piers:
+        for layout in layouts:
+            for shaking in shakings:
+                for split, seeds in (("tuning", tuning_seeds), ("held_out", held_out_seeds)):
+                    for seed in seeds:
+                        out += _selfcheck_runs(pier, layout, shaking, seed, split, fault_mps2,
+                                               tuple(v for v in variants if v != "rc"))
+                for seed in rc_seeds:
+                    out += _selfcheck_runs(pier, layout, shaking, seed, "held_out",
+                                           fault_mps2, ("rc",) if "rc" in variants else ())
+    return out
+
+
+def _selfcheck_runs(pier: str, layout: str, shaking: str, seed: int, split: str,
+                    fault_mps2: float, variants: tuple[str, ...]) -> list[dict[str, Any]]:
+    """The self-check runs of one field case and seed (see :func:`bench_selfcheck`)."""
+    out = []
+    info = dict(pier=pier, layout=layout, shaking=shaking, seed=seed, split=split,
+                method="field")
+    settings = PinnSettings(seed=seed, method="field")
+    if "clean" in variants or "sensor_fault" in variants:
+        window, truth, theta = field_case(pier, layout, False, shaking, seed)
+    if "clean" in variants:
+        run = identify(window, settings)
+        out.append(_selfcheck_entry(run, window, theta, truth,
+                                    case=f"selfcheck_{pier}_{layout}_{shaking}_clean",
+                                    variant="clean", hysteresis="bilinear", **info))
+    if "sensor_fault" in variants:
+        levels = np.flatnonzero(window.coverage.acceleration)
+        level = int(levels[seed % levels.size])
+        faulty = _with_sensor_fault(window, level, fault_mps2)
+        run = identify(faulty, settings)
+        out.append(_selfcheck_entry(run, faulty, theta, truth,
+                                    case=f"selfcheck_{pier}_{layout}_{shaking}_sensor_fault",
+                                    variant="sensor_fault", fault_level=level + 1,
+                                    fault_mps2=fault_mps2, hysteresis="bilinear", **info))
+    if "rc" in variants:
+        syn = field_case_recording(pier, layout, False, shaking, seed, hysteresis="takeda")
+        window, _, theta = _field_window(syn, f"{pier}/{layout}/{shaking}/{seed}/takeda")
+        rc = syn.truth.runs[0].rc
+        run = identify(window, settings)
+        entry = _selfcheck_entry(run, window, theta, None,
+                                 case=f"selfcheck_{pier}_{layout}_{shaking}_rc",
+                                 variant="rc", hysteresis="takeda", **info)
+        entry.update(true_df=[float(v) for v in rc.ductility_factor],
+                     rc_yielded=[bool(v) for v in rc.yielded])
+        out.append(entry)
+    return out
+
+
+def _judged(run: dict[str, Any], limits: MisfitLimits) -> str:
+    """The misfit kind of a self-check run under ``limits`` (from its raw entries)."""
+    if not run["misfit"]["entries"]:
+        return run["misfit"]["kind"]  # the simulation failed: a model misfit
+    entries = [MisfitEntry(e["level"], e["quantity"], _nan_none(e["misfit_rel"]), 0.0,
+                           _nan_none(e["systematic_r2"]), _nan_none(e["noise_rel"]),
+                           _nan_none(e["offset_rel"])) for e in run["misfit"]["entries"]]
+    return judge_misfit(entries, limits).kind
+
+
+def _checked_states(run: dict[str, Any], limits: MisfitLimits) -> list[str]:
+    """The states of a run after its self-check under ``limits`` (``identify_window``'s
+    rule): every section unreliable for a sensor's misfit, else at least suspicious where
+    the evidence says so."""
+    kind = _judged(run, limits)
+    if kind == "sensor":
+        return ["unreliable"] * len(run["states"])
+    entries = [MisfitEntry(e["level"], e["quantity"], _nan_none(e["misfit_rel"]), 0.0,
+                           _nan_none(e["systematic_r2"]), _nan_none(e["noise_rel"]),
+                           _nan_none(e["offset_rel"])) for e in run["misfit"]["entries"]]
+    misfit = (judge_misfit(entries, limits) if entries else
+              ModelMisfit(entries=(), kind=run["misfit"]["kind"],
+                          reasons=tuple(run["misfit"]["reasons"])))
+    evidence = section_evidence(misfit, np.array([_nan_none(e) for e in run["energy_index"]]))
+    order = ["intact", "suspicious", "damaged"]
+    return [max(st, "suspicious", key=order.index) if ev and st in order else st
+            for st, ev in zip(run["states"], evidence)]
+
+
+def _state_counts(runs: list[dict[str, Any]], checked: list[list[str]]) -> dict[str, Any]:
+    """Over the sections with a known true DF: how many are reported intact at a true DF >=
+    1.5 and damaged at a true DF < 1.2, before and after the self-check; how many runs are
+    unreliable after it."""
+    out: dict[str, Any] = {"unreliable_runs": sum(c[0] == "unreliable" for c in checked)}
+    for label, states_of in (("before", lambda r, c: r["states"]), ("after", lambda r, c: c)):
+        intact_damaged = damaged_elastic = sections = 0
+        for r, c in zip(runs, checked):
+            for st, d in zip(states_of(r, c), r.get("true_df", ())):
+                sections += 1
+                intact_damaged += st == "intact" and d >= 1.5
+                damaged_elastic += st == "damaged" and d < 1.2
+        out[f"intact_at_df_ge_1.5_{label}"] = intact_damaged
+        out[f"damaged_at_df_lt_1.2_{label}"] = damaged_elastic
+    return out
+
+
+def _nan_none(value: float | None) -> float:
+    return float("nan") if value is None else float(value)
+
+
+def _ceil_to(value: float, step: float) -> float:
+    return float(np.ceil(value / step - 1e-9) * step)
+
+
+def calibrate_selfcheck(runs: list[dict[str, Any]]) -> dict[str, float]:
+    """Thresholds of the self-check from the clean runs of the tuning seeds: 1.5 times the
+    largest clean misfit (rounded up to 0.05) and offset (rounded up to 0.01, at least
+    0.02); the energy index that promotes, twice the largest of the sections that truly
+    stayed elastic (rounded up to 0.1, at least 0.2: the index of a spring that barely
+    yielded is of that order), and the one under a model misfit, half of it."""
+    clean = [r for r in runs if r["split"] == "tuning" and r["variant"] == "clean"]
+    entries = [e for r in clean for e in r["misfit"]["entries"]]
+    misfit = max((e["misfit_rel"] for e in entries if e["misfit_rel"] is not None),
+                 default=0.0)
+    offset = max((e["offset_rel"] for e in entries if e["offset_rel"] is not None),
+                 default=0.0)
+    elastic = [e for r in clean if "true_df" in r
+               for e, d in zip(r["energy_index"], r["true_df"]) if d < 1.0 and np.isfinite(e)]
+    energy = max(0.2, _ceil_to(2.0 * max(elastic, default=0.0), 0.1))
+    return {"model_rel": _ceil_to(1.5 * misfit, 0.05), "offset_rel": max(
+        0.02, _ceil_to(1.5 * offset, 0.01)), "energy_index_large": energy,
+        "energy_index_misfit": 0.5 * energy}
+
+
+def summarize_selfcheck(runs: list[dict[str, Any]], limits: MisfitLimits | None = None
+                        ) -> dict[str, Any]:
+    """Rates of the self-check per split (tuning / held-out) and variant under ``limits``
+    (default: the product's): false alarms on the clean runs, detections (fires) and
+    right attributions (``sensor`` for a sensor fault, ``model`` for a model the
+    identifier does not assume) on the others; and, over the sections, how often a section
+    that truly stayed elastic (DF < 1) reaches the promoting energy index."""
+    limits = limits or MisfitLimits()
+    out: dict[str, Any] = {"case": "selfcheck_summary", "limits": dataclasses.asdict(limits),
+                           "energy_index_large": ENERGY_INDEX_LARGE,
+                           "energy_index_misfit": ENERGY_INDEX_MISFIT,
+                           "rule": "sensor misfit: every section unreliable; model misfit or "
+                                   "large energy index: at least suspicious (selfcheck module)",
+                           "calibrated_on_tuning": calibrate_selfcheck(runs),
+                           "tuning_seeds": sorted({r["seed"] for r in runs
+                                                   if r["split"] == "tuning"}),
+                           "held_out_seeds": sorted({r["seed"] for r in runs
+                                                     if r["split"] == "held_out"}),
+                           "rates": {}, "wall_s": 0.0, "device": "cpu"}
+    expected = {"clean": "none", "sensor_fault": "sensor", "rc": "model"}
+    for split in ("tuning", "held_out"):
+        for variant in ("clean", "sensor_fault", "rc"):
+            sel = [r for r in runs if r["split"] == split and r["variant"] == variant]
+            if not sel:
+                continue
+            kinds = [_judged(r, limits) for r in sel]
+            fires = sum(k != "none" for k in kinds)
+            entry = {"runs": len(sel), "fires": fires, "fire_rate": fires / len(sel),
+                     "kind_as_expected": sum(k == expected[variant] for k in kinds),
+                     "by_layout": {}}
+            for layout in sorted({r["layout"] for r in sel}):
+                ks = [k for k, r in zip(kinds, sel) if r["layout"] == layout]
+                entry["by_layout"][layout] = {"runs": len(ks),
+                                              "fires": sum(k != "none" for k in ks)}
+            checked = [_checked_states(r, limits) for r in sel]
+            entry.update(_state_counts(sel, checked))
+            elastic = [e for r in sel if "true_df" in r
+                       for e, d in zip(r["energy_index"], r["true_df"]) if d < 1.0]
+            if elastic:
+                entry["elastic_sections"] = len(elastic)
+                entry["elastic_sections_over_energy_large"] = int(sum(
+                    e >= ENERGY_INDEX_LARGE for e in elastic if e is not None))
+            out["rates"][f"{split}/{variant}"] = entry
+    return out
+
+
+def _selfcheck_suite() -> list[dict[str, Any]]:
+    """The ``selfcheck`` suite: :func:`bench_selfcheck` and its summary (last entry)."""
+    runs = bench_selfcheck()
+    return [*runs, summarize_selfcheck(runs)]
+
+
 SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "solver": bench_solver,
     "ingest": bench_ingest,
@@ -430,6 +667,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "field": bench_field,
     "coverage": bench_coverage,
     "missed_damage": bench_missed_damage,
+    "selfcheck": _selfcheck_suite,
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.
@@ -456,6 +694,23 @@ def format_table(results: list[dict[str, Any]]) -> str:
                          f"{r['ingest_s']:.2f} s = {r['per_60s_of_data_s']:.2f} s per 60 s of "
                          f"data; streamed in 0.1 s blocks {r['stream_s']:.1f} s; windows "
                          f"{r['windows']} (stream {r['stream_windows']})")
+    summary = [r for r in results if r["case"] == "selfcheck_summary"]
+    for r in summary:
+        lines.append(f"self-check (tuning seeds {r['tuning_seeds']}, held-out seeds "
+                     f"{r['held_out_seeds']}; limits {r['limits']}, energy index "
+                     f"{r['energy_index_large']:g} / {r['energy_index_misfit']:g} under a "
+                     f"misfit; calibrated on tuning: {r['calibrated_on_tuning']})")
+        lines.append(f"  {'split/variant':<24} {'runs':>5} {'fires':>6} {'rate':>6} "
+                     f"{'kind ok':>8}  by layout (fires/runs)")
+        for key, e in r["rates"].items():
+            layouts = ", ".join(f"{k} {v['fires']}/{v['runs']}" for k, v in e["by_layout"].items())
+            lines.append(f"  {key:<24} {e['runs']:>5} {e['fires']:>6} {e['fire_rate']:>6.0%} "
+                         f"{e['kind_as_expected']:>8}  {layouts}; intact at DF>=1.5 "
+                         f"{e['intact_at_df_ge_1.5_before']} -> "
+                         f"{e['intact_at_df_ge_1.5_after']}, damaged at DF<1.2 "
+                         f"{e['damaged_at_df_lt_1.2_before']} -> "
+                         f"{e['damaged_at_df_lt_1.2_after']}, unreliable runs "
+                         f"{e['unreliable_runs']}")
     ident = [r for r in results if "mae_pct" in r]
     if ident:
         lines.append("")

@@ -11,11 +11,12 @@ baseline, what a failure leaves behind) are those of
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from pier_monitor.core.identify.checks import check_identification
 from pier_monitor.core.identify.damage import IdentificationResult
+from pier_monitor.core.identify.selfcheck import self_check
 from pier_monitor.core.ingest.settings import EventIngest
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.identify.methods import IdentifySettings, Progress, identify
@@ -88,6 +89,13 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     4. The result checks itself
        (:func:`~pier_monitor.core.identify.checks.check_identification`): any reason makes
        it *unreliable* — every state ``unreliable``, never intact, suspicious or damaged.
+       The identified model is simulated under the measured foundation motion and compared
+       with the measured responses (:func:`~pier_monitor.core.identify.selfcheck.self_check`):
+       a misfit at one level that the response does not explain (a sensor's) makes the
+       result unreliable; a model misfit, a large hysteretic energy make sections at least
+       suspicious (:meth:`IdentificationResult.with_evidence`), never a reliable intact.
+       ``result.json`` holds the misfit (``model_misfit``) and each section's
+       ``energy_index`` and ``evidence``.
     5. The results are written (:func:`~pier_monitor.report.results.write_results`), with
        the window's ingest findings.
 
@@ -132,6 +140,10 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
         return EventOutcome(window=window, result=failed, out_dir=out_dir,
                             window_file=window_file, paths=None)
     reasons = check_identification(run.result.params, run.reproduced, window)
+    check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a)
+    run = replace(run, result=run.result.with_evidence(check.energy_index, check.evidence,
+                                                       check.misfit.as_dict()))
+    reasons = [*reasons, *check.unreliable_reasons]
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,

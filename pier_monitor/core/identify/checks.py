@@ -12,7 +12,10 @@ when there are none):
 * a ductility factor is implausible (above ``max_df``);
 * the reproduced responses depart from the measured ones, per level and quantity, by more
   than ``misfit_rel`` plus ``misfit_noise`` standard deviations of the measurement noise
-  (relative RMS).
+  (relative RMS).  The reproduced responses follow the data by construction (the PINN's
+  outputs, the field route's measured accelerations), so this last check rarely fires; the
+  check that can is the output error of the identified model simulated under the measured
+  foundation motion (:mod:`~pier_monitor.core.identify.selfcheck`).
 """
 
 from __future__ import annotations

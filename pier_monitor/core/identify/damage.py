@@ -21,6 +21,21 @@ an ensemble carries a :class:`~pier_monitor.core.identify.uncertainty.SectionUnc
    identification's own scatter (:func:`k1_loss_beyond_scatter`) is cracking: the section
    is at least suspicious.  Against design values the rule does not apply: a design value
    is no measurement, its difference from an identified ``k1`` is no evidence of damage.
+
+Evidence from the self-check by output error (:mod:`~pier_monitor.core.identify.selfcheck`)
+applies with or without an ensemble, and only raises a state
+(:meth:`IdentificationResult.with_evidence`):
+
+5. a section whose energy index (hysteretic energy of its moment–rotation loop over the
+   elastic energy at its peak) reaches ``ENERGY_INDEX_LARGE`` dissipated far more than an
+   elastic section can: it is at least suspicious, whatever its DF;
+6. when the identified model misfits the data systematically ("model misfit", several
+   levels or a residual that follows the response), its DF is that of a model that does not
+   follow the pier: a section whose energy index reaches ``ENERGY_INDEX_MISFIT``, or under a
+   level whose misfit is beyond its allowance, is at least suspicious with the reason
+   ``model misfit: ...``;
+7. a misfit at one level only that the response does not explain is a sensor's, not the
+   model's: the result is unreliable (the reason goes to the self-check's reasons).
 """
 
 from __future__ import annotations
@@ -139,7 +154,8 @@ def _may_have_yielded(yielded: bool, uncertainty: SectionUncertainty | None) -> 
 
 def decide_state(ductility_factor: float, yielded: bool,
                  uncertainty: SectionUncertainty | None = None, *,
-                 k1_loss: str | None = None) -> tuple[DamageState, tuple[str, ...]]:
+                 k1_loss: str | None = None,
+                 evidence: Sequence[str] = ()) -> tuple[DamageState, tuple[str, ...]]:
     """The state of a section and the reasons for every promotion (see the module's rules).
 
     Parameters
@@ -155,6 +171,9 @@ def decide_state(ductility_factor: float, yielded: bool,
         The reason line of a ``k1`` loss beyond the scatter against an earlier event
         (:func:`k1_loss_reason`); it makes the section at least suspicious.  Used only with
         an uncertainty.
+    evidence : sequence of str
+        Reason lines of the self-check (a large energy index, a model misfit): each makes
+        the section at least suspicious, with or without an uncertainty (rules 5-6).
 
     Returns
     -------
@@ -165,7 +184,7 @@ def decide_state(ductility_factor: float, yielded: bool,
     if not math.isfinite(ductility_factor):
         return DamageState.UNKNOWN, ()
     if uncertainty is None or uncertainty.members < 2:
-        return classify_ductility(ductility_factor), ()
+        return _with_evidence(classify_ductility(ductility_factor), (), evidence)
     state = uncertainty.most_probable_state
     reasons = []
     df = uncertainty.ductility_factor
@@ -181,7 +200,16 @@ def decide_state(ductility_factor: float, yielded: bool,
     if k1_loss:
         state = max(state, DamageState.SUSPICIOUS)
         reasons.append(k1_loss)
-    return state, tuple(reasons)
+    return _with_evidence(state, tuple(reasons), evidence)
+
+
+def _with_evidence(state: DamageState, reasons: tuple[str, ...], evidence: Sequence[str]
+                   ) -> tuple[DamageState, tuple[str, ...]]:
+    """At least suspicious, with the evidence's reasons, when there is any evidence."""
+    evidence = tuple(str(e) for e in evidence)
+    if not evidence:
+        return state, reasons
+    return max(state, DamageState.SUSPICIOUS), reasons + evidence
 
 
 @dataclass(frozen=True)
@@ -198,6 +226,12 @@ class SectionResult:
     judged against (``k1_change_scatter_pct``, percentage
     points), and the ``reasons`` for a state promoted above the most probable one
     (:func:`decide_state`); all None / empty for a single identification.
+
+    ``energy_index`` is the hysteretic energy of the section's moment–rotation loop over the
+    elastic energy at its peak (dimensionless, :func:`~pier_monitor.core.identify.selfcheck.
+    energy_indices`; None when not computed); ``evidence`` the self-check's reasons that make
+    the section at least suspicious (rules 5-6 of the module), kept when the state is decided
+    again against another baseline.
     """
 
     index: int
@@ -221,6 +255,8 @@ class SectionResult:
     k1_change_scatter_pct: float | None = None
     reasons: tuple[str, ...] = ()
     k1_vs_design_pct: float | None = None
+    energy_index: float | None = None
+    evidence: tuple[str, ...] = ()
 
     @property
     def ductility_factor_upper_bound(self) -> bool:
@@ -272,7 +308,8 @@ class SectionResult:
             lo, hi, scatter = interval.lo_pct, interval.hi_pct, interval.scatter_pct
             if event and k1_loss_beyond_scatter(change_pct, interval):
                 loss = k1_loss_reason(change_pct, interval, baseline_label)
-        state, reasons = decide_state(self.ductility_factor, self.yielded, u, k1_loss=loss)
+        state, reasons = decide_state(self.ductility_factor, self.yielded, u, k1_loss=loss,
+                                      evidence=self.evidence)
         return replace(self, k1_change_pct=float(change_pct), k1_change_lo_pct=lo,
                        k1_change_hi_pct=hi, k1_change_scatter_pct=scatter,
                        state=state.name.lower(), reasons=reasons)
@@ -283,6 +320,7 @@ class SectionResult:
         d["uncertainty"] = None if self.uncertainty is None else self.uncertainty.to_dict()
         d["reasons"] = list(self.reasons)
         d["ductility_factor_upper_bound"] = self.ductility_factor_upper_bound
+        d["evidence"] = list(self.evidence)
         return d
 
     @classmethod
@@ -298,6 +336,7 @@ class SectionResult:
         if d.get("uncertainty") is not None:
             d["uncertainty"] = SectionUncertainty.from_dict(d["uncertainty"])
         d["reasons"] = tuple(d.get("reasons", ()))
+        d["evidence"] = tuple(d.get("evidence", ()))
         return cls(**d)
 
 
@@ -321,7 +360,10 @@ class IdentificationResult:
     event's data (repairs, exclusions, failures; sensor and time in each).  ``partial`` is
     why the window is partial (the data end during the shaking, after its strong motion),
     None for a complete event; result.json writes it as ``"partial": {"reason": ...}`` or
-    ``null``.
+    ``null``.  ``model_misfit`` is the self-check by output error
+    (:meth:`~pier_monitor.core.identify.selfcheck.ModelMisfit.as_dict`: ``fires``, ``kind``
+    ``none``/``sensor``/``model``, ``reasons``, the worst relative RMS misfit and its
+    allowance, one entry per level and quantity); None when it was not run.
     """
 
     pier_id: str
@@ -345,6 +387,7 @@ class IdentificationResult:
     unreliable_reasons: tuple[str, ...] = ()
     findings: tuple[Finding, ...] = ()
     partial: str | None = None
+    model_misfit: dict[str, Any] | None = None
 
     def __eq__(self, other: object) -> bool:
         """Field by field, a NaN equal to a NaN (a method that does not train has no loss;
@@ -440,6 +483,49 @@ class IdentificationResult:
                        overall_state=DamageState.UNRELIABLE.name.lower(),
                        unreliable_reasons=reasons,
                        message=f"{text}; {self.message}" if self.message else text)
+
+    def with_evidence(self, energy_index: Sequence[float] | np.ndarray,
+                      evidence: Sequence[Sequence[str]],
+                      model_misfit: dict[str, Any] | None = None) -> IdentificationResult:
+        """A copy with the self-check's energy indices, evidence and misfit summary.
+
+        Every section with evidence becomes at least suspicious (a diagnosis only: unknown
+        and unreliable sections stay so), its reasons extended by the evidence; later
+        re-decisions (:meth:`with_k1_baseline`) keep it.
+
+        Parameters
+        ----------
+        energy_index : sequence of float, shape (N,)
+            Energy index per section (dimensionless).
+        evidence : sequence of sequence of str, N of them
+            The reasons that make each section at least suspicious (empty: none).
+        model_misfit : dict, optional
+            The misfit summary for ``result.json``
+            (:meth:`~pier_monitor.core.identify.selfcheck.ModelMisfit.as_dict`).
+
+        Raises
+        ------
+        InputDataError
+            If ``energy_index`` or ``evidence`` do not have one entry per section.
+        """
+        n = len(self.sections)
+        energy = np.asarray(energy_index, dtype=float)
+        if energy.shape != (n,) or len(evidence) != n:
+            raise InputDataError(f"self-check evidence: expected {n} sections, got energy "
+                                 f"indices of shape {energy.shape} and {len(evidence)} "
+                                 "evidence lists")
+        sections = []
+        for s, e, ev in zip(self.sections, energy, evidence):
+            ev = tuple(str(r) for r in ev)
+            s = replace(s, energy_index=float(e), evidence=ev)
+            if ev and is_diagnosis(s.damage_state):
+                state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
+                s = replace(s, state=state.name.lower(), reasons=reasons)
+            sections.append(s)
+        sections = tuple(sections)
+        overall = overall_state(sections) if self.success else self.overall_state
+        return replace(self, sections=sections, overall_state=overall,
+                       model_misfit=model_misfit)
 
     def with_baseline(self, baseline: IdentificationResult) -> IdentificationResult:
         """A copy whose ``k1`` changes are relative to an earlier event's result.

@@ -1,0 +1,189 @@
+"""The self-check by output error: the identified model simulated under the measured
+foundation motion against what was measured, the energy index, and the states they raise."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from pier_monitor.core.identify.damage import IdentificationResult, build_sections
+from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, MisfitLimits,
+                                                  energy_indices, model_misfit,
+                                                  section_evidence, simulate_identified)
+from pier_monitor.core.ingest import ingest_recording
+from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.core.model.config import SpringParameters, load_config
+from pier_monitor.core.model.link_model import spring_angles
+from pier_monitor.core.resources import find_config_file
+from pier_monitor.core.synthetic.shaking_table import edefense_scenario, generate_recording
+from pier_monitor.events import identify_window
+from pier_monitor.pinn import PinnSettings
+from pier_monitor.report.results import load_result
+from pier_monitor.report.store import ResultsStore
+
+
+@pytest.fixture(scope="module")
+def cases() -> list[tuple[MeasuredWindow, SpringParameters, np.ndarray]]:
+    """The two windows of a short synthetic shaking-table test with imperfect sensors, their
+    true parameters and true ductility factors (run 1: base DF 1.8; run 2: sections 1-2 at
+    DF 4.0 and 3.5, sections 3-4 elastic)."""
+    config = load_config(find_config_file("edefense_like.yaml"))
+    scenario = edefense_scenario(record_s=20.0, lead_s=12.0, gap_s=18.0, tail_s=18.0)
+    syn = generate_recording(config, scenario, seed=0)
+    windows, _ = ingest_recording(syn.recording)
+    assert len(windows) == 2
+    return [(w, r.params, r.ductility_factors) for w, r in zip(windows, syn.truth.runs)]
+
+
+@pytest.mark.parametrize("run", [0, 1])
+def test_the_true_model_does_not_fire_on_clean_data(cases, run):
+    window, truth, _ = cases[run]
+    misfit = model_misfit(window, truth)
+    assert not misfit.fires and misfit.kind == "none" and misfit.reasons == ()
+    # accelerations of every level and displacements of every level (full layout)
+    assert len(misfit.entries) == 2 * window.n_levels
+    # what is left is the sensors' errors (1 % gains, azimuths, tilts): far below the limit
+    assert max(e.misfit for e in misfit.entries) < MisfitLimits().model_rel
+    assert max(e.offset for e in misfit.entries) < 0.5 * MisfitLimits().offset_rel
+    assert misfit.simulated is not None and misfit.simulated.a.shape == window.a.shape
+
+
+def test_the_simulation_starts_at_rest_and_follows_the_window(cases):
+    window, truth, _ = cases[0]
+    sim = simulate_identified(window, truth)
+    assert sim.t.size == window.t.size
+    assert np.all(sim.x[0] == 0) and np.all(sim.v[0] == 0)
+    np.testing.assert_allclose(sim.ag, window.ag)
+
+
+@pytest.mark.parametrize("level", [0, 2, 3])
+def test_an_accelerometer_step_fires_as_a_suspect_sensor(cases, level):
+    window, truth, _ = cases[1]
+    a = np.array(window.a)
+    a[window.t.size // 2:, level] += 0.5  # +0.5 m/s² from the middle of the event
+    misfit = model_misfit(dataclasses.replace(window, a=a), truth)
+    assert misfit.fires and misfit.kind == "sensor"
+    assert len(misfit.reasons) == 1
+    assert misfit.reasons[0].startswith(f"suspect sensor at level {level + 1}: ")
+    faulty = [e for e in misfit.entries if e.level == level + 1 and e.quantity == "acceleration"]
+    # a step of 0.5 m/s² over half the window: an offset of 0.25-0.75 of the RMS here
+    assert faulty[0].offset > 0.1
+
+
+def test_responses_of_a_softer_model_fire_as_a_model_misfit(cases):
+    window, truth, _ = cases[1]
+    softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
+    sim = simulate_identified(window, softer)
+    doctored = dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x)
+    misfit = model_misfit(doctored, truth)
+    assert misfit.fires and misfit.kind == "model"
+    assert all(r.startswith("model misfit: level ") for r in misfit.reasons)
+    # every level misfits, by far more than the allowance
+    assert {e.level for e in misfit.entries if e.exceeded} == {1, 2, 3, 4}
+    assert min(e.misfit for e in misfit.entries) > 0.5
+    d = misfit.as_dict()
+    assert d["fires"] and d["kind"] == "model" and d["worst_misfit_rel"] > 0.5
+
+
+def test_energy_index_of_elastic_sections_is_small_and_of_yielded_ones_large(cases):
+    window, truth, df_true = cases[1]
+    theta = spring_angles(window.geometry.section_heights_m, window.x)
+    energy = energy_indices(window, truth, theta, window.a)
+    assert df_true[0] > 3 and df_true[1] > 3 and df_true[2] < 1 and df_true[3] < 1
+    assert np.all(np.abs(energy[2:]) < 0.3), energy
+    assert np.all(energy[:2] > ENERGY_INDEX_LARGE), energy
+
+
+def test_energy_index_of_a_linear_elastic_pier_is_zero(cases):
+    window, truth, _ = cases[0]
+    elastic = dataclasses.replace(truth, fy=1e3 * truth.fy)  # never yields
+    sim = simulate_identified(window, elastic)
+    clean = dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x)
+    energy = energy_indices(clean, elastic, sim.theta, sim.a)
+    np.testing.assert_allclose(energy, 0.0, atol=0.02)
+
+
+def _intact_result(window: MeasuredWindow, truth: SpringParameters) -> IdentificationResult:
+    """A single identification that found every section intact (DF 0.5)."""
+    theta = np.outer(np.sin(np.linspace(0, 20, window.t.size)), 0.5 * truth.yield_angles)
+    sections = build_sections(window.geometry, truth, theta,
+                              np.zeros(window.n_levels, dtype=bool))
+    assert [s.state for s in sections] == ["intact"] * window.n_levels
+    return IdentificationResult(
+        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
+        overall_state="intact", window_start_s=0.0, window_duration_s=window.duration_s,
+        epochs=0, final_loss=float("nan"), wall_time_s=0.0, device="cpu")
+
+
+def test_a_model_misfit_with_a_large_energy_makes_a_section_at_least_suspicious(cases):
+    window, truth, _ = cases[1]
+    softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
+    sim = simulate_identified(window, softer)
+    misfit = model_misfit(dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x), truth)
+    energy = np.array([3.0, 0.9 * ENERGY_INDEX_LARGE, 0.1, 0.0])
+    evidence = section_evidence(misfit, energy)
+    # the base: large energy and its level misfits; section 2 by its level; all by misfit
+    assert any("dissipated energy" in r for r in evidence[0])
+    assert all(any(r.startswith("model misfit") for r in ev) for ev in evidence)
+    result = _intact_result(window, truth).with_evidence(energy, evidence, misfit.as_dict())
+    assert [s.state for s in result.sections] == ["suspicious"] * 4
+    assert result.overall_state == "suspicious"
+    assert result.sections[0].energy_index == 3.0
+    # a new baseline decides the states again: the evidence stays
+    rebased = result.with_k1_baseline(truth.k1, "design values")
+    assert [s.state for s in rebased.sections] == ["suspicious"] * 4
+    back = IdentificationResult.from_dict(rebased.to_dict())
+    assert back.sections[0].evidence == rebased.sections[0].evidence
+    assert back.model_misfit["kind"] == "model"
+
+
+def test_without_a_misfit_only_a_large_energy_promotes(cases):
+    window, truth, _ = cases[1]
+    misfit = model_misfit(window, truth)
+    energy = np.array([ENERGY_INDEX_LARGE + 0.5, 0.9 * ENERGY_INDEX_LARGE, 0.1 * ENERGY_INDEX_LARGE,
+                       0.0])
+    evidence = section_evidence(misfit, energy)
+    assert evidence[1:] == [(), (), ()]
+    result = _intact_result(window, truth).with_evidence(energy, evidence, misfit.as_dict())
+    assert [s.state for s in result.sections] == ["suspicious", "intact", "intact", "intact"]
+    assert result.model_misfit["fires"] is False
+
+
+def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(
+        cases, tmp_path):
+    window, _, df_true = cases[1]
+    settings = PinnSettings(seed=0, method="field", device="cpu")
+    clean = identify_window(window, settings, ResultsStore(tmp_path / "clean"), figures=False)
+    saved = load_result(clean.paths.result_json)
+    assert saved.model_misfit is not None and saved.model_misfit["fires"] is False
+    assert len(saved.model_misfit["entries"]) == 2 * window.n_levels
+    energy = [s.energy_index for s in saved.sections]
+    assert energy[0] > ENERGY_INDEX_LARGE and energy[1] > ENERGY_INDEX_LARGE
+    assert abs(energy[2]) < 0.3 and abs(energy[3]) < 0.3
+    assert clean.status == "identified"
+    a = np.array(window.a)
+    a[window.t.size // 2:, 2] += 0.5
+    faulty = dataclasses.replace(window, a=a, event_id=window.event_id + "_fault")
+    outcome = identify_window(faulty, settings, ResultsStore(tmp_path / "fault"),
+                              figures=False)
+    assert outcome.status == "unreliable"
+    assert outcome.result.model_misfit["kind"] == "sensor"
+    assert any(r.startswith("suspect sensor at level 3: ")
+               for r in outcome.result.unreliable_reasons)
+    assert {s.state for s in outcome.result.sections} == {"unreliable"}
+
+
+def test_in_a_sparse_layout_a_section_answers_to_the_next_measured_level_up():
+    from pier_monitor.core.identify.selfcheck import MisfitEntry, judge_misfit
+    limits = MisfitLimits()
+    entries = [MisfitEntry(2, "acceleration", 0.9, 0.0, 0.5, 0.01, 0.01),
+               MisfitEntry(4, "acceleration", 0.1, 0.0, 0.5, 0.01, 0.01),
+               MisfitEntry(6, "acceleration", 0.8, 0.0, 0.5, 0.01, 0.01)]
+    misfit = judge_misfit(entries, limits)
+    assert misfit.kind == "model" and misfit.entries[0].allowed == limits.model_rel
+    evidence = section_evidence(misfit, np.zeros(6))
+    # sections 1-2 carry level 2's motion, 3-4 level 4's, 5-6 level 6's
+    assert [bool(ev) for ev in evidence] == [True, True, False, False, True, True]
+    assert "level 2's acceleration by 90% RMS" in evidence[0][0]
