@@ -501,7 +501,7 @@ def _selfcheck_runs(pier: str, layout: str, shaking: str, seed: int, split: str,
     out = []
     info = dict(pier=pier, layout=layout, shaking=shaking, seed=seed, split=split,
                 method="field")
-    settings = PinnSettings(seed=seed, method="field")
+    settings = IdentifySettings(seed=seed, method="field")
     if "clean" in variants or "sensor_fault" in variants:
         window, truth, theta = field_case(pier, layout, False, shaking, seed)
     if "clean" in variants:

@@ -19,7 +19,7 @@ from pier_monitor.core.model.link_model import spring_angles
 from pier_monitor.core.resources import find_config_file
 from pier_monitor.core.synthetic.shaking_table import edefense_scenario, generate_recording
 from pier_monitor.events import identify_window
-from pier_monitor.pinn import PinnSettings
+from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.report.results import load_result
 from pier_monitor.report.store import ResultsStore
 
@@ -154,7 +154,7 @@ def test_without_a_misfit_only_a_large_energy_promotes(cases):
 def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(
         cases, tmp_path):
     window, _, df_true = cases[1]
-    settings = PinnSettings(seed=0, method="field", device="cpu")
+    settings = IdentifySettings(seed=0, method="field", device="cpu")
     clean = identify_window(window, settings, ResultsStore(tmp_path / "clean"), figures=False)
     saved = load_result(clean.paths.result_json)
     assert saved.model_misfit is not None and saved.model_misfit["fires"] is False
