@@ -18,6 +18,9 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.bags import read_bag
+from pier_monitor.bench_live import bench_latency
+from pier_monitor.events import identify_window
+from pier_monitor.report.store import ResultsStore
 from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
 from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.core.identify.damage import ductility_factors
@@ -658,6 +661,105 @@ def _selfcheck_suite() -> list[dict[str, Any]]:
     return [*runs, summarize_selfcheck(runs)]
 
 
+#: Held-out seeds of the RC suite (nothing in the product was tuned on them).
+RC_HELD_OUT_SEEDS = (302, 303)
+
+
+def bench_rc(seeds: tuple[int, ...] = RC_HELD_OUT_SEEDS,
+             hystereses: tuple[str, ...] = ("bilinear", "takeda", "bwbn"),
+             piers: tuple[str, ...] = ("edefense", "table1"),
+             layouts: tuple[str, ...] = ("full", "accel", "sparse"),
+             shakings: tuple[str, ...] = ("strong", "just_yield")) -> list[dict[str, Any]]:
+    """The default route on the RC test-bed, as the product runs it.
+
+    Each case (imperfect sensors, design values off the truth) is ingested and identified
+    by :func:`~pier_monitor.events.identify_window` with the default settings (``auto``: the
+    equation-error fit with the spring family chosen by evidence on the full layout, the
+    field reconstruction otherwise; then the self-check), so the states scored are the ones
+    the product reports.  Truth: the bilinear springs' DF, or for the RC springs
+    (:mod:`pier_monitor.core.synthetic.rc`) the DF on the idealised yield of the skeleton
+    and whether the reinforcement yielded.  Seeds held out (:data:`RC_HELD_OUT_SEEDS`)."""
+    out = []
+    with tempfile.TemporaryDirectory(prefix="pier_monitor_rc_") as tmp:
+        store = ResultsStore(Path(tmp))
+        for hyst in hystereses:
+            for pier in piers:
+                for layout in layouts:
+                    for shaking in shakings:
+                        for seed in seeds:
+                            out.append(_rc_run(store, hyst, pier, layout, shaking, seed))
+    return out
+
+
+def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str,
+            seed: int) -> dict[str, Any]:
+    name = f"{pier}/{layout}/{shaking}/{seed}/{hyst}"
+    syn = field_case_recording(pier, layout, False, shaking, seed, hysteresis=hyst)
+    window, truth, _ = _field_window(syn, name)
+    window = dataclasses.replace(window, event_id=f"rc_{hyst}_{pier}_{layout}_{shaking}_{seed}")
+    run_truth = syn.truth.runs[0]
+    if run_truth.rc is not None:
+        true_df = np.asarray(run_truth.rc.ductility_factor, dtype=float)
+        yielded = np.asarray(run_truth.rc.yielded, dtype=bool)
+    else:
+        true_df = np.asarray(run_truth.ductility_factors, dtype=float)
+        yielded = true_df > 1.0
+    started = time.perf_counter()
+    outcome = identify_window(window, IdentifySettings(seed=seed), store, figures=False)
+    wall = time.perf_counter() - started
+    result = outcome.result
+    states = [s.state for s in result.sections]
+    df = np.array([s.ductility_factor for s in result.sections])
+    err = 100.0 * np.abs(df / true_df - 1.0)
+    misfit = result.model_misfit or {}
+    return {
+        "case": f"rc_{hyst}_{pier}_{layout}_{shaking}", "seed": seed, "split": "held_out",
+        "hysteresis": hyst, "pier": pier, "layout": layout, "shaking": shaking,
+        "method": "equation_error" if window.coverage.is_full else "field",
+        "family": (result.family or {}).get("family"),
+        "misfit_kind": misfit.get("kind"), "misfit_fires": bool(misfit.get("fires")),
+        "states": states, "true_df": true_df.tolist(), "df": df.tolist(),
+        "reinforcement_yielded": yielded.tolist(),
+        "df_err_pct_yielded": [float(e) for e, y in zip(err, yielded) if y],
+        "intact_at_df_ge_1.5": int(sum(st == "intact" and d >= 1.5
+                                       for st, d in zip(states, true_df))),
+        "damaged_where_elastic": int(sum(st == "damaged" and not y
+                                         for st, y in zip(states, yielded))),
+        "unreliable": result.overall_state == "unreliable",
+        "wall_s": round(wall, 2), "device": "cpu"}
+
+
+def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per hysteresis and layout: runs, family chosen, misfit fired, DF error on the
+    yielded sections (mean, max), sections intact at a true DF >= 1.5, damaged where the
+    reinforcement stayed elastic, unreliable runs, the slowest event."""
+    out: dict[str, Any] = {"case": "rc_summary", "groups": {}, "wall_s": 0.0, "device": "cpu"}
+    for hyst in sorted({r["hysteresis"] for r in runs}):
+        for layout in sorted({r["layout"] for r in runs}):
+            sel = [r for r in runs if r["hysteresis"] == hyst and r["layout"] == layout]
+            if not sel:
+                continue
+            errs = [e for r in sel for e in r["df_err_pct_yielded"]]
+            out["groups"][f"{hyst}/{layout}"] = {
+                "runs": len(sel),
+                "family": {f: sum(r["family"] == f for r in sel)
+                           for f in sorted({str(r["family"]) for r in sel})},
+                "misfit_fired": sum(r["misfit_fires"] for r in sel),
+                "df_err_pct_yielded_mean": float(np.mean(errs)) if errs else None,
+                "df_err_pct_yielded_max": float(np.max(errs)) if errs else None,
+                "intact_at_df_ge_1.5": sum(r["intact_at_df_ge_1.5"] for r in sel),
+                "damaged_where_elastic": sum(r["damaged_where_elastic"] for r in sel),
+                "unreliable_runs": sum(r["unreliable"] for r in sel),
+                "max_wall_s": max(r["wall_s"] for r in sel)}
+    return out
+
+
+def _rc_suite() -> list[dict[str, Any]]:
+    """The ``rc`` suite: :func:`bench_rc` and its summary (last entry)."""
+    runs = bench_rc()
+    return [*runs, summarize_rc(runs)]
+
+
 SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "solver": bench_solver,
     "ingest": bench_ingest,
@@ -668,6 +770,8 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "coverage": bench_coverage,
     "missed_damage": bench_missed_damage,
     "selfcheck": _selfcheck_suite,
+    "rc": _rc_suite,
+    "latency": lambda: bench_latency(),
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.

@@ -158,9 +158,11 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="benchmarks against known truth",
                            description="Run benchmarks with fixed seeds; print a table.")
     bench.add_argument("--suite", action="append", default=None,
-                       help="suite to run (repeatable): solver, ingest, paper, more, fleet, field, coverage, "
-                            "missed_damage "
-                            "(default: solver, ingest and paper)")
+                       help="suite to run (repeatable): solver, ingest, paper, more, fleet, "
+                            "field, coverage, missed_damage, selfcheck, rc (the RC test-bed "
+                            "through the default route), latency (the live graph: end of "
+                            "shaking to the published state) (default: solver, ingest and "
+                            "paper)")
     bench.add_argument("--all", action="store_true",
                        help="every suite (more: noise 0.1/10 mgal, a long-duration record, El "
                             "Centro, the realistic-noise case; field, coverage, fleet take tens "

@@ -257,6 +257,10 @@ class SectionResult:
     k1_vs_design_pct: float | None = None
     energy_index: float | None = None
     evidence: tuple[str, ...] = ()
+    family: str = "bilinear"
+    k_secant: float | None = None
+    k_small_after: float | None = None
+    stiffness_loss_pct: float | None = None
 
     @property
     def ductility_factor_upper_bound(self) -> bool:
@@ -363,7 +367,10 @@ class IdentificationResult:
     ``null``.  ``model_misfit`` is the self-check by output error
     (:meth:`~pier_monitor.core.identify.selfcheck.ModelMisfit.as_dict`: ``fires``, ``kind``
     ``none``/``sensor``/``model``, ``reasons``, the worst relative RMS misfit and its
-    allowance, one entry per level and quantity); None when it was not run.
+    allowance, one entry per level and quantity); None when it was not run.  ``family`` is
+    the spring family chosen by evidence and why
+    (:meth:`~pier_monitor.core.identify.families.FamilyChoice.as_dict`), None where the
+    method did not compare families.
     """
 
     pier_id: str
@@ -388,6 +395,7 @@ class IdentificationResult:
     findings: tuple[Finding, ...] = ()
     partial: str | None = None
     model_misfit: dict[str, Any] | None = None
+    family: dict[str, Any] | None = None
 
     def __eq__(self, other: object) -> bool:
         """Field by field, a NaN equal to a NaN (a method that does not train has no loss;
@@ -588,8 +596,8 @@ class IdentificationResult:
 
 def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.ndarray,
                    yielded: np.ndarray, baseline_k1: np.ndarray | None = None,
-                   uncertainty: Sequence[SectionUncertainty] | None = None
-                   ) -> tuple[SectionResult, ...]:
+                   uncertainty: Sequence[SectionUncertainty] | None = None,
+                   yield_angles: np.ndarray | None = None) -> tuple[SectionResult, ...]:
     """Per-section results from identified parameters and reproduced angles (T, N).
 
     For springs that did not yield, ``fy`` is the lower bound ``max|f|`` the fit reports,
@@ -611,10 +619,14 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
         One per section from :func:`~pier_monitor.core.identify.uncertainty.summarize_members`;
         the states are then decided by :func:`decide_state`.  With one member it is dropped:
         the result is that of a single identification.
+    yield_angles : ndarray, shape (N,), optional
+        The yield rotations the DF is measured on, rad: the idealised yield of a skeleton
+        other than the bilinear (default ``fy / k1``).
     """
     z = geometry.level_heights_m
     max_angle = np.max(np.abs(theta), axis=0)
-    df = capped_ductility(max_angle, params.yield_angles, yielded)
+    theta_y = params.yield_angles if yield_angles is None else np.asarray(yield_angles, float)
+    df = capped_ductility(max_angle, theta_y, yielded)
     if uncertainty is not None:
         uncertainty = tuple(uncertainty)
         if len(uncertainty) != geometry.n_levels:
@@ -630,7 +642,7 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
         out.append(SectionResult(
             index=i, z_bottom_m=float(z[i]), z_top_m=float(z[i + 1]), k1=float(params.k1[i]),
             k2=float(params.k2[i]), fy=float(params.fy[i]), c=float(params.c[i]),
-            yield_angle_rad=float(params.yield_angles[i]), max_angle_rad=float(max_angle[i]),
+            yield_angle_rad=float(theta_y[i]), max_angle_rad=float(max_angle[i]),
             ductility_factor=float(df[i]), state=state.name.lower(), yielded=y,
             k2_identifiable=y, fy_identifiable=y, uncertainty=u, reasons=reasons))
     if baseline_k1 is None:
@@ -638,6 +650,18 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
     change = k1_change_pct(params.k1, baseline_k1)
     base = np.asarray(baseline_k1, dtype=float)
     return tuple(s.rebased(float(b), float(d), "baseline") for s, b, d in zip(out, base, change))
+
+
+def with_family(sections: tuple[SectionResult, ...], family: Any) -> tuple[SectionResult, ...]:
+    """The sections with what the spring family chosen for the event says of them: its
+    name, the cracked/secant stiffness to yield, the small-amplitude stiffness after the
+    event and the loss the event caused (``family`` a
+    :class:`~pier_monitor.core.identify.families.FamilyChoice`)."""
+    return tuple(replace(
+        s, family=family.family, k_secant=float(family.secant_yield_stiffness[s.index]),
+        k_small_after=float(family.small_amplitude_stiffness[s.index]),
+        stiffness_loss_pct=float(-100.0 * family.stiffness_degradation[s.index]))
+        for s in sections)
 
 
 def overall_state(sections: tuple[SectionResult, ...]) -> str:

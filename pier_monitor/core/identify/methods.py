@@ -35,10 +35,12 @@ from typing import Any, Callable, Protocol
 import numpy as np
 
 from pier_monitor.core.errors import IdentificationError, InputDataError
+from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
-                                               capped_ductility, overall_state)
+                                               capped_ductility, overall_state, with_family)
 from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
+from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
 from pier_monitor.core.identify.field import FieldSettings, fit_field
 from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
                                                     summarize_members)
@@ -281,6 +283,10 @@ class MethodOutput:
     history : dict
         Per-epoch records of a training (``params``: the parameters of every epoch, kept
         in the run, not in the result).
+    family : FamilyChoice or None
+        The spring family chosen by evidence, when the method compared families; where it
+        is not the bilinear, the DF and the yield decision are the family's (the
+        idealised yield of its skeleton).
     """
 
     params: SpringParameters
@@ -295,6 +301,7 @@ class MethodOutput:
     epochs: int = 0
     final_loss: float = float("nan")
     history: dict[str, list[Any]] = field(default_factory=dict)
+    family: FamilyChoice | None = None
 
 
 class Method(Protocol):
@@ -377,9 +384,11 @@ class EquationErrorMethod:
         _require_full(window, self.name)
         b = angle_matrix(window.geometry.section_heights_m)
         fits, thetas, moments = [], [], []
+        fit0 = None
         for w in member_windows(window, settings.members, seed=settings.seed):
             fit = fit_equation_error(w.geometry, w.x, w.v, w.a, w.ag, w.design,
                                      moments=w.moments, yield_score=settings.yield_score)
+            fit0 = fit0 or fit
             theta = w.x @ b.T
             g = (w.moments if w.moments is not None
                  else inertia_moments(w.geometry, w.a, w.ag) - (w.v @ b.T) * fit.params.c)
@@ -403,12 +412,26 @@ class EquationErrorMethod:
                                   ductility=member_ductility(theta, member_params, yielded))
             member_responses = MemberResponses(theta=theta, moment=np.stack(moments),
                                                x=theta @ np.linalg.inv(b).T)
+        family = _choose_family(window, fit0, thetas[0])
         message = ("equation-error fit of the measured responses"
-                   + (f", {settings.members} members" if draws is not None else ""))
+                   + (f", {settings.members} members" if draws is not None else "")
+                   + f"; {family.reason}")
         return MethodOutput(params=params0, yielded=first[1], reproduced=reproduced,
                             initial=window.design, stages={"equation_error": params0},
                             draws=draws, member_responses=member_responses, device="cpu",
-                            message=message)
+                            message=message, family=family)
+
+
+def _choose_family(window: MeasuredWindow, fit: Any, theta: np.ndarray) -> FamilyChoice:
+    """The spring family of the event by evidence
+    (:func:`~pier_monitor.core.identify.families.fit_families`: the bilinear or the
+    modified Takeda, BIC against the noise model), fitted to the measured window."""
+    b = angle_matrix(window.geometry.section_heights_m)
+    g = (window.moments if window.moments is not None
+         else inertia_moments(window.geometry, window.a, window.ag))
+    noise_var = moment_noise_variance(window.geometry, window.noise, fit.params.k1,
+                                      fit.params.c)
+    return fit_families(theta, window.v @ b.T, g, noise_var, fit.springs)
 
 
 def _require_full(window: MeasuredWindow, method: str) -> None:
@@ -484,9 +507,15 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         masked[..., 1:3] = np.where(d.yielded[..., None], masked[..., 1:3], np.nan)
         uncertainty = summarize_members(masked[kept], d.ductility[kept], d.yielded[kept])
         p_overall = overall_state_probabilities(d.ductility, d.yielded)
-    sections = build_sections(window.geometry, out.params, out.reproduced.theta, out.yielded,
+    yielded, yield_angles = out.yielded, None
+    rc_family = out.family is not None and out.family.family != "bilinear"
+    if rc_family:  # DF on the idealised yield of the identified skeleton, its yield decision
+        yielded, yield_angles = out.family.yielded, out.family.idealised_yield_rotation
+    sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
                               baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1,
-                              uncertainty=uncertainty)
+                              uncertainty=uncertainty, yield_angles=yield_angles)
+    if out.family is not None:
+        sections = with_family(sections, out.family)
     result = IdentificationResult(
         pier_id=window.pier_id, event_id=window.event_id, sections=sections,
         overall_state=overall_state(sections), window_start_s=float(window.t[0]),
@@ -494,7 +523,8 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         wall_time_s=time.perf_counter() - t_start, device=out.device, success=True,
         message=out.message, settings=settings.as_dict(),
         history={k: v for k, v in out.history.items() if k != "params"},
-        p_overall_state=p_overall)
+        p_overall_state=p_overall,
+        family=None if out.family is None else finite_or_none(out.family.as_dict()))
     return IdentificationRun(result=result, reproduced=out.reproduced, initial=out.initial,
                              history=out.history, stages=out.stages,
                              members=out.member_responses)
