@@ -6,8 +6,7 @@ Reads and writes with ``rosbags`` and ``mcap``; never imports rclpy.  See
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pier_monitor.core.lazy import lazy_names
 
 
 #: Where each public name lives: loaded on first use (PEP 562), so that importing one
@@ -36,19 +35,6 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
-
-
 __all__ = [
     "BagError",
     "BagSummary",
@@ -71,3 +57,5 @@ __all__ = [
     "write_synthetic_bag",
     "write_synthetic_edefense_bag",
 ]
+
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, __all__)

@@ -8,8 +8,7 @@ can run wherever results are read.  Figures take an identification run by its at
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pier_monitor.core.lazy import lazy_names
 
 from pier_monitor.core.errors import ReportError
 
@@ -47,19 +46,6 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
-
-
 __all__ = [
     "COMPARE_JSON",
     "COMPARE_PNG",
@@ -90,3 +76,5 @@ __all__ = [
     "write_damage_state_mcap",
     "write_results",
 ]
+
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, __all__)
