@@ -476,10 +476,11 @@ def test_field_network_bag_live_equals_offline(listener, spawn_python, tmp_path)
 
     info = write_synthetic_bag(tmp_path / "field.mcap", fmt="mcap", seed=2, layout="accel",
                                gnss=True, scenario="just_yield", block_s=0.5)
-    offline = identify_bag(info.bag.path, tmp_path / "offline", settings=IdentifySettings(**TINY))
+    offline = identify_bag(info.bag.path, tmp_path / "offline",
+                           settings=IdentifySettings(**{**TINY, "method": "auto"}))
     coverage, = (ev.window.coverage for ev in offline.events)
     assert coverage.acceleration.all() and coverage.displacement.tolist() == [False] * 3 + [True]
-    params = params_file(tmp_path / "params.yaml", tmp_path)
+    params = params_file(tmp_path / "params.yaml", tmp_path, method="auto")
     graph = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/start_graph.py"),
                          "--namespace", NS, "--params-file", str(params))
     graph.wait_for_line("READY", 30)
