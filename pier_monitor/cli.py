@@ -32,7 +32,7 @@ from pier_monitor.bench import DEFAULT_SUITES, SUITES, format_table
 from pier_monitor.core.errors import PierMonitorError, ReportError
 from pier_monitor.core.fileio import to_strict_json
 from pier_monitor.core.identify.damage import ductility_factors
-from pier_monitor.core.ingest.settings import Finding, fmt_span
+from pier_monitor.core.ingest.findings import Finding, fmt_span
 from pier_monitor.core.model.config import load_config
 from pier_monitor.core.model.ground_motion import load_accelerogram, synthetic_near_fault
 from pier_monitor.core.model.solver import simulate
@@ -328,8 +328,12 @@ def _print_event(ev: EventOutcome) -> None:
     else:
         w = ev.window
         part = " (PARTIAL: the data end during the shaking)" if r.partial else ""
-        print(f"\nevent {r.event_id}{part}: window {w.duration_s:.1f} s, trained {r.epochs} epochs "
+        how = (f"trained {r.epochs} epochs" if r.epochs else "identified") + (
+            f", {r.family['family']} springs" if r.family else "")
+        print(f"\nevent {r.event_id}{part}: window {w.duration_s:.1f} s, {how} "
               f"in {r.wall_time_s:.1f} s on {r.device}; overall state {r.overall_state.upper()}")
+        if r.model_misfit and r.model_misfit.get("fires"):
+            print("model misfit: " + "; ".join(r.model_misfit.get("reasons", ())))
         print(f"{'section':>8} {'z (m)':>11} {'k1 (N·m/rad)':>13} {'k2 (N·m/rad)':>13} "
               f"{'fy (N·m)':>10} {'c (N·m·s/rad)':>14} {'DF':>7} {'state':>10} "
               f"{'k1 change':>10} {'vs design':>10}")

@@ -31,7 +31,8 @@ from pier_monitor.core.identify.damage import (IdentificationResult, failed_even
                                                failed_result)
 from pier_monitor.core.ingest import IngestReport, IngestSettings, ingest_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording
-from pier_monitor.core.ingest.settings import EventIngest, Finding
+from pier_monitor.core.ingest.settings import EventIngest
+from pier_monitor.core.ingest.findings import Finding
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import PierConfig
 from pier_monitor.events import EventOutcome, identify_window

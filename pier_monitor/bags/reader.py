@@ -50,7 +50,7 @@ from rosbags.rosbag2 import Reader
 from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml
 from pier_monitor.core.errors import PierMonitorError
 from pier_monitor.core.ingest.recording import Recording, SensorRecord, stamp_to_ns
-from pier_monitor.core.ingest.settings import Finding, fmt_time
+from pier_monitor.core.ingest.findings import Finding, fmt_time
 
 from .errors import BagError
 from .recover import scan_mcap

@@ -43,7 +43,8 @@ from std_msgs.msg import String
 
 from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id, safe_child
 from pier_monitor.core.ingest import StreamIngest
-from pier_monitor.core.ingest.settings import EventIngest, fmt_time
+from pier_monitor.core.ingest.settings import EventIngest
+from pier_monitor.core.ingest.findings import fmt_time
 from pier_monitor.core.ingest.window import MeasuredWindow, save_window
 from pier_monitor.core.model.config import PierConfig, SensorSpec, config_from_yaml, load_config
 

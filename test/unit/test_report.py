@@ -300,7 +300,7 @@ def test_compare_with_an_unreliable_result_concludes_no_change_of_state() -> Non
 
 def test_the_identify_summary_names_sensor_action_and_time() -> None:
     from pier_monitor.cli import ingest_summary
-    from pier_monitor.core.ingest.settings import Finding
+    from pier_monitor.core.ingest.findings import Finding
 
     t = START_NS
     findings = [Finding("glitch", "l3_wire_n", "one sample", t, t, "repaired"),

@@ -54,7 +54,7 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.fileio import atomic_path, nan_if_none, to_strict_json
 from pier_monitor.core.ingest.window import MeasuredWindow
 
-from pier_monitor.core.ingest.settings import Finding
+from pier_monitor.core.ingest.findings import Finding
 
 from .states import DAMAGED_DF, SUSPICIOUS_DF, DamageState, classify_ductility, is_diagnosis
 from .uncertainty import K1ChangeInterval, SectionUncertainty, Spread, k1_change_interval

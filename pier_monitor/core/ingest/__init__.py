@@ -42,8 +42,9 @@ from pier_monitor.core.ingest.clean import CleanSensor, clean_sensor
 from pier_monitor.core.ingest.events import EventSpan, detect_events
 from pier_monitor.core.ingest.levels import estimate_principal_direction, level_motion
 from pier_monitor.core.ingest.prepare import clean_recording
-from pier_monitor.core.ingest.settings import (EventIngest, Finding, IngestError, IngestReport,
+from pier_monitor.core.ingest.settings import (EventIngest, IngestError, IngestReport,
                                                IngestSettings, LevelUnusableError)
+from pier_monitor.core.ingest.findings import Finding
 from pier_monitor.core.ingest.stream import StreamIngest
 from pier_monitor.core.ingest.windows import ingest_recording
 

@@ -29,7 +29,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from pier_monitor.core.ingest.recording import NS_PER_S, SensorRecord
-from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_span, fmt_time
+from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
+from pier_monitor.core.ingest.findings import fmt_span, fmt_time
 from pier_monitor.core.model.config import SensorSpec
 
 __all__ = ["CleanSensor", "clean_sensor", "bridge_gaps", "block_starts", "block_median", "nan_median",

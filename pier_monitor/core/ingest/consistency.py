@@ -29,7 +29,8 @@ from scipy import signal
 
 from pier_monitor.core.ingest.clean import GLITCH, CleanSensor, block_median, fmt_recorded, runs_of
 from pier_monitor.core.ingest.levels import HorizontalChannel, availability_patterns, horizontal_channels
-from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_span
+from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
+from pier_monitor.core.ingest.findings import fmt_span
 from pier_monitor.core.model.units import G_STANDARD, UNIT_FACTORS
 
 __all__ = ["check_units", "check_accelerometers", "check_displacement", "leave_one_out"]

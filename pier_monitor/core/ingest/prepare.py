@@ -15,7 +15,8 @@ from pier_monitor.core.ingest.clean import (CleanSensor, block_starts, bridge_ga
                                             data_rate_hz, rate_problem)
 from pier_monitor.core.ingest.consistency import check_accelerometers, check_units
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
-from pier_monitor.core.ingest.settings import IngestError, IngestReport, IngestSettings, fmt_time
+from pier_monitor.core.ingest.settings import IngestError, IngestReport, IngestSettings
+from pier_monitor.core.ingest.findings import fmt_time
 
 __all__ = ["clean_recording", "recording_grid"]
 

@@ -13,20 +13,17 @@ time instead of losing it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Mapping
+from typing import Mapping
 
 import numpy as np
 
 from pier_monitor.core.model.config import PierConfig
 from pier_monitor.core.errors import InputDataError
-
-if TYPE_CHECKING:  # pragma: no cover
-    from pier_monitor.core.ingest.settings import Finding
+from pier_monitor.core.ingest.findings import NS_PER_S, Finding
 
 __all__ = ["SensorRecord", "Recording", "sample_times_ns", "NS_PER_S", "ns_to_stamp",
            "stamp_to_ns"]
 
-NS_PER_S = 1_000_000_000
 _INT32_MIN, _INT32_MAX = -2 ** 31, 2 ** 31 - 1
 
 

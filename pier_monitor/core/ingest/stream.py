@@ -12,7 +12,8 @@ from pier_monitor.core.ingest.events import EventSpan, detect_events, trigger_th
 from pier_monitor.core.ingest.levels import level_motion_partial
 from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
-from pier_monitor.core.ingest.settings import IngestReport, IngestSettings, fmt_time
+from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
+from pier_monitor.core.ingest.findings import fmt_time
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.ingest.windows import SpanFilter, ingest_recording, span_times
 from pier_monitor.core.model.config import PierConfig

@@ -28,7 +28,7 @@ import numpy as np
 
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.fileio import atomic_path
-from pier_monitor.core.ingest.settings import Finding
+from pier_monitor.core.ingest.findings import Finding
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
 
 __all__ = ["NoiseModel", "Coverage", "MeasuredWindow", "Reproduced", "QUANTITIES",

@@ -24,9 +24,8 @@ from pier_monitor.core.ingest.levels import (estimate_principal_direction, level
                                              level_motion_partial, level_noise_si)
 from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording
-from pier_monitor.core.ingest.settings import (EventIngest, IngestError, IngestReport,
-                                               IngestSettings, LevelUnusableError, fmt_span,
-                                               fmt_time)
+from pier_monitor.core.ingest.settings import EventIngest, IngestError, IngestReport, IngestSettings, LevelUnusableError
+from pier_monitor.core.ingest.findings import fmt_span, fmt_time
 from pier_monitor.core.ingest.window import Coverage, MeasuredWindow, NoiseModel
 from pier_monitor.core.numerics import cumulative_trapezoid
 
