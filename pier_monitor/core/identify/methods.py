@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import importlib
 import json
+import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Callable, Protocol
 
 import numpy as np
@@ -42,6 +43,7 @@ from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
 from pier_monitor.core.identify.field import FieldSettings, fit_field
+from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
 from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
                                                     summarize_members)
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
@@ -88,7 +90,9 @@ class IdentifySettings:
         where there are any), for windows that start at rest; it tolerates uncalibrated
         gains (about 1 %) and misaligned sensors, which bias the equation-error start.
         ``equation_error``: the PINN's start alone (every level fully measured).
-        ``auto``: ``equation_error`` with every level fully measured, else ``field``.  The
+        ``auto``: ``equation_error`` with every level fully measured (``field`` where the
+        bilinear equation-error fit does not reproduce the measurements and the field
+        reconstruction does better), else ``field``.  The
         PINN is not chosen by ``auto``: on the benchmark cases its training never improved
         on its equation-error start beyond the seed scatter (see the README), at minutes
         per event.
@@ -498,7 +502,10 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     settings = settings or IdentifySettings()
     settings.validate()
     t_start = time.perf_counter()
-    out = choose_method(window, settings).run(window, settings, callback)
+    method = choose_method(window, settings)
+    out = method.run(window, settings, callback)
+    if settings.method == "auto" and method.name == "equation_error":
+        out = _better_of_fits(window, settings, out, callback)
     uncertainty = p_overall = None
     if out.draws is not None:
         d = out.draws
@@ -528,6 +535,41 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     return IdentificationRun(result=result, reproduced=out.reproduced, initial=out.initial,
                              history=out.history, stages=out.stages,
                              members=out.member_responses)
+
+
+def _better_of_fits(window: MeasuredWindow, settings: IdentifySettings, fit: MethodOutput,
+                    callback: Callable[[Progress], None] | None) -> MethodOutput:
+    """``auto`` on a fully measured window: the equation-error fit, unless its bilinear
+    springs, simulated under the measured foundation motion, do not reproduce the
+    measurements (:func:`~pier_monitor.core.identify.selfcheck.model_misfit`) and the field
+    reconstruction's do better.
+
+    The equation-error fit takes the measured responses as exact, so sensors whose gains and
+    azimuths the configuration does not know bias it; the field reconstruction estimates
+    the gains.  Chosen by the evidence of the event, not by the layout.  A fit whose family
+    is not the bilinear is kept: its misfit is that of the bilinear simulation, not its own.
+    """
+    if fit.family is not None and fit.family.family != "bilinear":
+        return fit
+    first = model_misfit(window, fit.params)
+    if not first.fires:
+        return fit
+    other = FieldMethod().run(window, settings, callback)
+    second = model_misfit(window, other.params)
+    worst_first, worst_second = _misfit_ratio(first), _misfit_ratio(second)
+    if not worst_second < worst_first:
+        return fit
+    return replace(other, message=(
+        f"{other.message}; chosen over the equation-error fit, whose simulation misfits the "
+        f"measurements at {worst_first:.2f} of its allowance against {worst_second:.2f}"))
+
+
+def _misfit_ratio(misfit: ModelMisfit) -> float:
+    """The worst misfit over its allowance (inf when the simulation failed)."""
+    worst = misfit.worst
+    if worst is None or not math.isfinite(worst.misfit):
+        return math.inf
+    return worst.misfit / worst.allowed
 
 
 def member_ductility(theta: np.ndarray, params: np.ndarray, yielded: np.ndarray) -> np.ndarray:
