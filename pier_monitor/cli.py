@@ -43,7 +43,7 @@ from pier_monitor.fleet import FleetOptions, FleetProgress, LocalPool, RayBacken
 from pier_monitor.core.identify.methods import METHODS, IdentifySettings
 from pier_monitor.events import EventOutcome
 from pier_monitor.pipeline import BagOutcome, identify_bag
-from pier_monitor.progress import TrainingProgress
+from pier_monitor.training_progress import TrainingProgress
 from pier_monitor.report._common import format_df
 from pier_monitor.report.compare import write_comparison
 from pier_monitor.report.results import load_result

@@ -15,7 +15,7 @@ import numpy as np
 
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import fit_families, moment_noise_variance
-from pier_monitor.core.ingest.windows import ingest_recording
+from pier_monitor.core.ingest.batch import ingest_recording
 from pier_monitor.core.model.link_model import angle_matrix
 from pier_monitor.core.synthetic.field import field_case_recording
 

@@ -39,14 +39,14 @@ on only once the offline rule sees it ended (or at the end of the stream).
 """
 
 from pier_monitor.core.ingest.clean import CleanSensor, clean_sensor
-from pier_monitor.core.ingest.events import EventSpan, detect_events
+from pier_monitor.core.ingest.triggers import EventSpan, detect_events
 from pier_monitor.core.ingest.levels import estimate_principal_direction, level_motion
 from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.settings import (EventIngest, IngestError, IngestReport,
                                                IngestSettings, LevelUnusableError)
 from pier_monitor.core.ingest.findings import Finding
 from pier_monitor.core.ingest.stream import StreamIngest
-from pier_monitor.core.ingest.windows import ingest_recording
+from pier_monitor.core.ingest.batch import ingest_recording
 
 __all__ = [
     "IngestError",

@@ -8,14 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.ingest.events import EventSpan, detect_events, trigger_threshold
+from pier_monitor.core.ingest.triggers import EventSpan, detect_events, trigger_threshold
 from pier_monitor.core.ingest.levels import level_motion_partial
 from pier_monitor.core.ingest.prepare import clean_recording
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
 from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
 from pier_monitor.core.ingest.findings import fmt_time
 from pier_monitor.core.ingest.window import MeasuredWindow
-from pier_monitor.core.ingest.windows import SpanFilter, ingest_recording, span_times
+from pier_monitor.core.ingest.batch import SpanFilter, ingest_recording, span_times
 from pier_monitor.core.model.config import PierConfig
 
 __all__ = ["StreamIngest", "StreamCounts"]

@@ -7,7 +7,7 @@ import io
 import numpy as np
 
 from pier_monitor.core.identify.methods import Progress
-from pier_monitor.progress import TrainingProgress
+from pier_monitor.training_progress import TrainingProgress
 
 
 def progress(epoch: int, max_epochs: int = 3000) -> Progress:

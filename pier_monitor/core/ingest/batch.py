@@ -17,7 +17,7 @@ from scipy import signal
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.ingest.clean import CleanSensor
 from pier_monitor.core.ingest.consistency import check_displacement
-from pier_monitor.core.ingest.events import (EventSpan, detect_events, make_event_id,
+from pier_monitor.core.ingest.triggers import (EventSpan, detect_events, make_event_id,
                                              trigger_threshold)
 from pier_monitor.core.ingest.fusion import fuse_acceleration_displacement
 from pier_monitor.core.ingest.levels import (estimate_principal_direction, level_motion,
