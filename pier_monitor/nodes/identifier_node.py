@@ -56,7 +56,7 @@ from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import TrainingStopped, identify_window
 from pier_monitor.fleet import EventTask, RayBackend, identify_event
-from pier_monitor.core.identify.methods import METHODS, IdentifySettings, Progress
+from pier_monitor.core.identify.methods import METHODS, IdentifySettings, Progress, prepare_method
 from pier_monitor.report.markers import DEFAULT_PARENT_FRAME, TF_STATIC_TOPIC
 from pier_monitor.report.results import damage_state_fields, k1_vs_design
 from pier_monitor.report.store import ResultsStore
@@ -148,6 +148,8 @@ class IdentifierNode(Node):
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._diag_timer = self.create_timer(self.get_parameter("diagnostics_period_s").value,
                                              self._publish_diagnostics)
+        if self._ray is None:  # a PINN trained here: torch loaded in this (the main) thread
+            prepare_method(self._param("method"))
         self._worker: QueueWorker[MeasuredWindow | MainshockWindow] = QueueWorker(
             "identifier_worker", self._identify, self._on_worker_error)
         self._window_sub = self.create_subscription(
@@ -173,6 +175,8 @@ class IdentifierNode(Node):
             if lo is not None and hi is not None and lo > hi:
                 return SetParametersResult(successful=False, reason=(
                     f"min_epochs ({lo}) must not exceed max_epochs ({hi})"))
+        if "method" in values and getattr(self, "_ray", None) is None:
+            prepare_method(values["method"])
         if "diagnostics_period_s" in values and hasattr(self, "_diag_timer"):
             self._diag_timer.timer_period_ns = int(values["diagnostics_period_s"] * 1e9)
         return SetParametersResult(successful=True)

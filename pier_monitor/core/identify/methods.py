@@ -51,8 +51,9 @@ from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import angle_matrix
 
 __all__ = ["DEFAULT_TERM_WEIGHTS", "PAPER_TERM_WEIGHTS", "TERMS", "METHODS",
-           "EnsembleDraws", "EquationErrorMethod", "FieldMethod", "IdentificationRun", "IdentifySettings", "Method",
-           "MethodOutput", "PinnMethod", "Progress", "choose_method", "identify"]
+           "EnsembleDraws", "EquationErrorMethod", "FieldMethod", "IdentificationRun",
+           "IdentifySettings", "Method", "MethodOutput", "PinnMethod", "Progress",
+           "choose_method", "identify", "prepare_method"]
 
 #: The PINN's loss terms: the data misfit, then the physics terms.
 TERMS = ("data", "eom", "newmark_a", "newmark_v", "newmark_x", "hysteresis")
@@ -361,12 +362,21 @@ class PinnMethod:
     name = "pinn"
     entry_point = "pier_monitor.pinn.trainer:train_pinn"
 
+    def load(self) -> Callable[..., MethodOutput]:
+        """The trainer, loaded (torch with it) on the first call.
+
+        A process that will train from a worker thread calls it first from its main thread:
+        torch is then loaded, and later unloaded at exit, where the process's other
+        native libraries are (a torch first loaded in a worker thread crashed a node's
+        shutdown now and then).
+        """
+        module, _, function = self.entry_point.partition(":")
+        return getattr(importlib.import_module(module), function)
+
     def run(self, window: MeasuredWindow, settings: IdentifySettings,
             callback: Callable[[Progress], None] | None = None) -> MethodOutput:
         """Train the network and the parameters together."""
-        module, _, function = self.entry_point.partition(":")
-        train = getattr(importlib.import_module(module), function)
-        return train(window, settings, callback)
+        return self.load()(window, settings, callback)
 
 
 class EquationErrorMethod:
@@ -448,6 +458,14 @@ def _require_full(window: MeasuredWindow, method: str) -> None:
 
 _METHODS: dict[str, Method] = {"field": FieldMethod(), "pinn": PinnMethod(),
                                "equation_error": EquationErrorMethod()}
+
+
+def prepare_method(name: str) -> None:
+    """Load what method ``name`` needs before its first run (the PINN's torch), from the
+    calling thread; nothing for the numpy methods or ``auto`` (which never trains a PINN)."""
+    method = _METHODS.get(name)
+    if isinstance(method, PinnMethod):
+        method.load()
 
 
 def choose_method(window: MeasuredWindow, settings: IdentifySettings) -> Method:
