@@ -29,7 +29,7 @@ import numpy as np
 import torch
 
 from pier_monitor.core.errors import IdentificationError
-from pier_monitor.core.identify.damage import capped_ductility
+from pier_monitor.core.identify.damage import member_ductility
 from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments, yield_test
 from pier_monitor.core.identify.methods import (TERMS, EnsembleDraws, IdentifySettings,
@@ -440,8 +440,7 @@ def _reproduce(problem: _PinnProblem, net: MemberNet, logp: torch.Tensor, ref: t
     params = SpringParameters(*(member_params[0, :, j] for j in range(4)))
     draws = member_responses = None
     if members > 1:
-        ductility = capped_ductility(np.abs(theta).max(axis=1),
-                                     member_params[..., 2] / member_params[..., 0], yielded)
+        ductility = member_ductility(theta, member_params, yielded)
         draws = EnsembleDraws(params=member_params, ductility=ductility, yielded=yielded)
         member_responses = MemberResponses(theta=theta, moment=rep["f"], x=rep["x"],
                                            a=rep["a"])

@@ -74,6 +74,7 @@ __all__ = [
     "IdentificationResult",
     "build_sections",
     "capped_ductility",
+    "member_ductility",
     "failed_result",
     "failed_event_result",
     "k1_change_pct",
@@ -106,6 +107,13 @@ def capped_ductility(max_angle: np.ndarray, yield_angle: np.ndarray,
     """
     df = np.asarray(max_angle, dtype=float) / np.asarray(yield_angle, dtype=float)
     return np.where(np.asarray(yielded, dtype=bool), df, np.minimum(df, 1.0))
+
+
+def member_ductility(theta: np.ndarray, params: np.ndarray, yielded: np.ndarray) -> np.ndarray:
+    """Ductility factors of every member of an ensemble, (M, N), from its angles (M, T, N),
+    rad, and parameters (M, N, 4) ``k1, k2, fy, c``, with the rule of
+    :func:`capped_ductility`."""
+    return capped_ductility(np.abs(theta).max(axis=1), params[..., 2] / params[..., 0], yielded)
 
 
 def k1_change_pct(k1: np.ndarray, baseline_k1: np.ndarray) -> np.ndarray:

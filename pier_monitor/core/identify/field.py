@@ -43,7 +43,7 @@ import numpy as np
 from scipy import optimize, stats
 
 from pier_monitor.core.errors import IdentificationError
-from pier_monitor.core.identify.damage import capped_ductility
+from pier_monitor.core.identify.damage import member_ductility
 from pier_monitor.core.identify.equation_error import robust_increments
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import SpringParameters
@@ -534,7 +534,6 @@ def _laplace_members(pb: _FieldProblem, sol: optimize.OptimizeResult, lo: np.nda
         params[m, ~yielded, 2] = np.abs(g[:, ~yielded]).max(axis=0)
     reached = np.abs(moment).max(axis=1) > params[..., 2] * (1.0 - np.abs(draws[:, 4:_COLUMNS * n:_COLUMNS]))
     member_yielded = yielded & reached
-    ductility = capped_ductility(np.abs(theta).max(axis=1), params[..., 2] / params[..., 0],
-                                 member_yielded)
+    ductility = member_ductility(theta, params, member_yielded)
     return FieldMembers(params=params, theta=theta, moment=moment, yielded=member_yielded,
                         ductility=ductility)

@@ -38,7 +38,7 @@ import numpy as np
 from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
-                                               capped_ductility, overall_state, with_family)
+                                               member_ductility, overall_state, with_family)
 from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
@@ -588,9 +588,3 @@ def _misfit_ratio(misfit: ModelMisfit) -> float:
     if worst is None or not math.isfinite(worst.misfit):
         return math.inf
     return worst.misfit / worst.allowed
-
-
-def member_ductility(theta: np.ndarray, params: np.ndarray, yielded: np.ndarray) -> np.ndarray:
-    """Ductility factors of every member, (M, N), from angles (M, T, N) and parameters
-    (M, N, 4), with the rule of :func:`~pier_monitor.core.identify.damage.capped_ductility`."""
-    return capped_ductility(np.abs(theta).max(axis=1), params[..., 2] / params[..., 0], yielded)
