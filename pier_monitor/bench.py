@@ -20,7 +20,7 @@ import numpy as np
 from pier_monitor.bags import read_bag
 from pier_monitor.bench_live import bench_latency
 from pier_monitor.events import identify_window
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
 from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.core.identify.damage import ductility_factors

@@ -5,7 +5,7 @@ bag (:func:`pier_monitor.pipeline.identify_bag`, offline) or from the live inges
 identifier node): store the window, choose the baseline, train, check the result, write
 the results, and return them.  The rules (where files go, which earlier event is the
 baseline, what a failure leaves behind) are those of
-:class:`~pier_monitor.report.store.ResultsStore`.
+:class:`~pier_monitor.store.ResultsStore`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from pier_monitor.core.ingest.settings import EventIngest
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.identify.methods import IdentifySettings, Progress, identify
 from pier_monitor.report.results import ResultsPaths, write_results
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 __all__ = ["EventOutcome", "TrainingStopped", "identify_window"]
 

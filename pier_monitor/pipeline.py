@@ -13,7 +13,7 @@ gets an outcome of its own, and one event's failure never costs another its resu
   the level, sensors, time and cause.
 
 Events are identified in time order; the baseline of each is the earliest earlier reliable
-result of the same pier in ``out`` (:class:`~pier_monitor.report.store.ResultsStore`): in an
+result of the same pier in ``out`` (:class:`~pier_monitor.store.ResultsStore`): in an
 empty directory, the first event of the bag.
 """
 
@@ -37,7 +37,7 @@ from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import PierConfig
 from pier_monitor.events import EventOutcome, identify_window
 from pier_monitor.core.identify.methods import IdentifySettings, Progress
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 __all__ = ["BagOutcome", "identify_bag"]
 
@@ -82,7 +82,7 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: IdentifySett
         A rosbag2 directory or a plain ``.mcap`` file written by pier_monitor (or with the
         same topics and the configuration inside).
     out_dir : str or Path
-        Results root (a :class:`~pier_monitor.report.store.ResultsStore`); created when
+        Results root (a :class:`~pier_monitor.store.ResultsStore`); created when
         missing.
     settings : IdentifySettings, optional
         Identification settings (default: the benchmarked ones).

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from pier_monitor.core.errors import BagError
 from pier_monitor.report.results import DAMAGE_STATE_MCAP, RESULT_JSON
-from pier_monitor.report.store import FAILED_JSON, WINDOW_NPZ
+from pier_monitor.store import FAILED_JSON, WINDOW_NPZ
 
 __all__ = ["bag_fingerprint", "bag_key", "find_bags"]
 

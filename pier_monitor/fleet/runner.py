@@ -12,7 +12,7 @@
 3. Each event is identified by a task of its own (:func:`~pier_monitor.fleet.tasks.
    identify_event`, i.e. :func:`~pier_monitor.events.identify_window`).  Results are keyed
    by event id and written atomically by the store.  The baseline of an event is the
-   store's (:meth:`~pier_monitor.report.store.ResultsStore.baseline_for`: the earliest
+   store's (:meth:`~pier_monitor.store.ResultsStore.baseline_for`: the earliest
    earlier reliable result of its pier), as for ``pier-monitor identify``: an event is
    handed out once every bag of its pier is ingested and its pier's earlier events have
    settled it (the first that may be a baseline is done, or all of them are done).  The first
@@ -42,7 +42,7 @@ from pier_monitor.core.ingest import IngestSettings
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.report.fleet import FleetPaths, FleetSummary, summarize_store, write_fleet_summary
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 from .backends import Backend, Finished, Resources, machine_cpus
 from .discover import bag_fingerprint, bag_key, find_bags
@@ -231,7 +231,7 @@ def run_fleet(paths: Sequence[str | Path], out: str | Path, backend: Backend,
     paths : sequence of str or Path
         Bags (rosbag2 directories, ``.mcap`` files) and directories searched for bags.
     out : str or Path
-        Results root (a :class:`~pier_monitor.report.store.ResultsStore`); never searched for
+        Results root (a :class:`~pier_monitor.store.ResultsStore`); never searched for
         bags.
     backend : Backend
         Where the tasks run (:class:`~pier_monitor.fleet.backends.LocalPool`,

@@ -25,7 +25,7 @@ from pier_monitor.core.ingest import IngestSettings, ingest_recording
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import identify_window
 from pier_monitor.core.identify.methods import IdentifySettings, Progress
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 __all__ = ["BagWindows", "EventDone", "EventTask", "IngestTask", "KillOnce", "identify_event",
            "ingest_bag"]

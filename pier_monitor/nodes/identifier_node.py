@@ -59,7 +59,7 @@ from pier_monitor.fleet import EventTask, RayBackend, identify_event
 from pier_monitor.core.identify.methods import METHODS, IdentifySettings, Progress, prepare_method
 from pier_monitor.report.markers import DEFAULT_PARENT_FRAME, TF_STATIC_TOPIC
 from pier_monitor.report.results import damage_state_fields, k1_vs_design
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 from ._params import declare
 from ._runtime import QueueWorker, run_node

@@ -1,5 +1,6 @@
-"""Reports of identifications: result files, damage-state mcap, figures, comparisons, and
-the results store (:class:`~pier_monitor.report.store.ResultsStore`).
+"""Reports of identifications: result files, damage-state mcap, figures, comparisons.  The
+results store they are kept in is :class:`~pier_monitor.store.ResultsStore`, outside this
+package: a report only renders.
 
 Imports core, bags and Matplotlib (Agg canvas, no pyplot); never torch or rclpy, so that it
 can run wherever results are read.  Figures take an identification run by its attributes
@@ -25,7 +26,6 @@ _LAZY = {
     "PROFILE_FIGSIZE_IN": "figures",
     "RESULT_JSON": "results",
     "ResultsPaths": "results",
-    "ResultsStore": "store",
     "RunLike": "figures",
     "SectionChange": "compare",
     "WrittenResult": "results",
@@ -57,7 +57,6 @@ __all__ = [
     "RESULT_JSON",
     "ReportError",
     "ResultsPaths",
-    "ResultsStore",
     "RunLike",
     "SectionChange",
     "WrittenResult",

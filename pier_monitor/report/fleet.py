@@ -1,6 +1,6 @@
 """The state of a network of piers from one results store: a ranked table, JSON, figure, mcap.
 
-:func:`summarize_store` takes every pier of a :class:`~pier_monitor.report.store.ResultsStore`
+:func:`summarize_store` takes every pier of a :class:`~pier_monitor.store.ResultsStore`
 and its latest event (a result, or a failure record), and ranks the piers by the worst state
 (damaged, suspicious, unreliable, unknown — a pier whose identification failed or failed its
 self-check cannot be cleared — then intact) and then by the largest ductility factor.  With
@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib.patches import Patch, Rectangle
@@ -33,7 +33,9 @@ from pier_monitor.core.fileio import to_strict_json
 from ._common import STATE_COLORS, atomic_write_text, ensure_dir, format_df
 from .figures import _figure, _save, _style
 from .results import write_damage_states_mcap
-from .store import ResultsStore
+
+if TYPE_CHECKING:
+    from pier_monitor.store import ResultsStore
 
 __all__ = ["FLEET_JSON", "FLEET_PNG", "FLEET_STATE_MCAP", "FleetPaths", "FleetSummary",
            "PierRow", "STATE_RANK", "plot_fleet", "summarize_store", "write_fleet_summary"]

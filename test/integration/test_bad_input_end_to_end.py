@@ -29,7 +29,7 @@ from pier_monitor.core.ingest import IngestSettings
 from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.pipeline import identify_bag
 from pier_monitor.report.compare import compare_results
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 pytestmark = pytest.mark.timeout(600)
 

@@ -10,7 +10,7 @@ import pytest
 from pier_monitor.core.synthetic.reference import paper_case_window
 from pier_monitor.events import TrainingStopped, identify_window
 from pier_monitor.core.identify.methods import IdentifySettings
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 
 @pytest.fixture(scope="module")

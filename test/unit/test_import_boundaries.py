@@ -8,7 +8,7 @@ imports, so must everything a layer loads.
     core     numpy/scipy only              pinn     the only torch importer
     bags     the only rosbags/mcap importer report   core, bags, Matplotlib (no pyplot)
     nodes    the only rclpy / *_msgs importer; uses the layers below, never torch itself
-    cli, pipeline, events, bench, progress: orchestration over core, pinn, bags, report
+    cli, pipeline, events, store, bench, progress: orchestration over core, pinn, bags, report
     fleet    many bags on a process pool or a Ray cluster: over the layers above, never rclpy
 """
 
@@ -28,7 +28,7 @@ ROS = ("rclpy", "rcl_interfaces", "builtin_interfaces", "std_msgs", "sensor_msgs
        "diagnostic_msgs", "visualization_msgs", "geometry_msgs", "tf2_msgs", "pier_monitor_msgs")
 BAGS = ("rosbags", "mcap", "mcap_ros2")
 TOP = ("pier_monitor.cli", "pier_monitor.pipeline", "pier_monitor.events", "pier_monitor.bench",
-       "pier_monitor.bench_live",
+       "pier_monitor.bench_live", "pier_monitor.store",
        "pier_monitor.training_progress")
 
 #: Third-party packages a layer may import directly (by top-level name).

@@ -21,7 +21,7 @@ from pier_monitor.core.synthetic.shaking_table import edefense_scenario, generat
 from pier_monitor.events import identify_window
 from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.report.results import load_result
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 
 @pytest.fixture(scope="module")

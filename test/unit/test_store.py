@@ -13,7 +13,7 @@ from pier_monitor.core.identify.damage import (IdentificationResult, SectionResu
                                                failed_result)
 from pier_monitor.core.ingest.window import MeasuredWindow, load_window, save_window
 from pier_monitor.core.synthetic.reference import paper_case_window
-from pier_monitor.report.store import FAILED_JSON, WINDOW_NPZ, ResultsStore
+from pier_monitor.store import FAILED_JSON, WINDOW_NPZ, ResultsStore
 
 T0 = 1_700_000_000 * 10 ** 9
 

@@ -21,7 +21,7 @@ from pier_monitor.core.identify.damage import IdentificationResult, failed_event
 from pier_monitor.core.model.config import PierGeometry
 from pier_monitor.report.compare import write_comparison
 from pier_monitor.report.fleet import summarize_store, write_fleet_summary
-from pier_monitor.report.store import FAILED_JSON, ResultsStore
+from pier_monitor.store import FAILED_JSON, ResultsStore
 
 
 def _refuse(name: str) -> Any:

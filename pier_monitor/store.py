@@ -38,8 +38,8 @@ from pier_monitor.core.identify.damage import IdentificationResult, failed_resul
 from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id, safe_child
 from pier_monitor.core.ingest.window import MeasuredWindow, load_window, save_window
 
-from ._common import ensure_dir
-from .results import RESULT_JSON
+from pier_monitor.report._common import ensure_dir
+from pier_monitor.report.results import RESULT_JSON
 
 __all__ = ["ResultsStore", "PendingWindows", "WINDOW_NPZ", "FAILED_JSON"]
 
