@@ -20,8 +20,9 @@
    each pier's bags one after another.
 4. A failed event is recorded with its reason (``failed.json``) and the fleet goes on; a
    worker process that dies mid-task is replaced and the task retried
-   (:mod:`~pier_monitor.fleet.backends`).  The summary of the whole results root is written
-   at the end (:func:`~pier_monitor.report.fleet.write_fleet_summary`).
+   (:mod:`~pier_monitor.fleet.backends`).  The summary of the whole results root is read
+   (:func:`~pier_monitor.fleet.summary.summarize_store`) and written at the end
+   (:func:`~pier_monitor.report.fleet.write_fleet_summary`).
 """
 
 from __future__ import annotations
@@ -41,12 +42,13 @@ from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest import IngestSettings
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.identify.methods import IdentifySettings
-from pier_monitor.report.fleet import FleetPaths, FleetSummary, summarize_store, write_fleet_summary
+from pier_monitor.report.fleet import FleetPaths, FleetSummary, write_fleet_summary
 from pier_monitor.store import ResultsStore
 
 from .backends import Backend, Finished, Resources, machine_cpus
 from .discover import bag_fingerprint, bag_key, find_bags
 from .progress import FleetProgress
+from .summary import summarize_store
 from .tasks import BagWindows, EventDone, EventTask, IngestTask, KillOnce, identify_event, ingest_bag
 
 __all__ = ["FLEET_DIR", "FleetOptions", "FleetRun", "run_fleet"]

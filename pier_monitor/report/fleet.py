@@ -1,10 +1,11 @@
-"""The state of a network of piers from one results store: a ranked table, JSON, figure, mcap.
+"""The state of a network of piers: a ranked table, JSON, figure, mcap.
 
-:func:`summarize_store` takes every pier of a :class:`~pier_monitor.store.ResultsStore`
-and its latest event (a result, or a failure record), and ranks the piers by the worst state
+Renders only: the rows come read from a results store
+(:func:`~pier_monitor.fleet.summary.summarize_store`: each pier's latest event — a result,
+or a failure record — and, with its previous reliable event, the change of each section's
+``k1`` against it).  :meth:`FleetSummary.ranked` ranks the piers by the worst state
 (damaged, suspicious, unreliable, unknown — a pier whose identification failed or failed its
-self-check cannot be cleared — then intact) and then by the largest ductility factor.  With
-a pier's previous reliable event, the change of each section's ``k1`` against it is given.
+self-check cannot be cleared — then intact) and then by the largest ductility factor.
 
 :func:`write_fleet_summary` writes into a directory:
 
@@ -20,25 +21,23 @@ a pier's previous reliable event, the change of each section's ``k1`` against it
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from matplotlib.patches import Patch, Rectangle
 
-from pier_monitor.core.identify.damage import IdentificationResult, k1_change_pct
+from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.fileio import to_strict_json
 
 from ._common import STATE_COLORS, atomic_write_text, ensure_dir, format_df
 from .figures import _figure, _save, _style
 from .results import write_damage_states_mcap
 
-if TYPE_CHECKING:
-    from pier_monitor.store import ResultsStore
-
 __all__ = ["FLEET_JSON", "FLEET_PNG", "FLEET_STATE_MCAP", "FleetPaths", "FleetSummary",
-           "PierRow", "STATE_RANK", "plot_fleet", "summarize_store", "write_fleet_summary"]
+           "PierRow", "STATE_RANK", "plot_fleet", "write_fleet_summary"]
 
 FLEET_JSON = "fleet.json"
 FLEET_PNG = "fleet.png"
@@ -119,6 +118,13 @@ class FleetSummary:
     rows: tuple[PierRow, ...]
     failures: tuple[IdentificationResult, ...]
 
+    @classmethod
+    def ranked(cls, rows: Sequence[PierRow], failures: Sequence[IdentificationResult]
+               ) -> FleetSummary:
+        """The summary of ``rows`` ranked worst first (module documentation), and the failed
+        events ``failures``."""
+        return cls(rows=tuple(sorted(rows, key=PierRow.sort_key)), failures=tuple(failures))
+
     def counts(self) -> dict[str, int]:
         """Piers per state."""
         return {state: sum(r.state == state for r in self.rows) for state in STATE_RANK}
@@ -151,29 +157,6 @@ class FleetSummary:
         lines.append(f"{len(self.rows)} piers: " + ", ".join(f"{counts[s]} {s}"
                                                               for s in STATE_RANK))
         return "\n".join(lines)
-
-
-def summarize_store(store: ResultsStore) -> FleetSummary:
-    """Rank the piers of a results store by their latest events (module documentation)."""
-    results = store.results()
-    failures = store.failures()
-    piers = sorted({r.pier_id for r in (*results, *failures)})
-    rows = []
-    for pier in piers:
-        events = sorted([r for r in (*results, *failures) if r.pier_id == pier],
-                        key=lambda r: (r.window_start_ns, r.event_id))
-        latest = events[-1]
-        earlier = [r for r in events[:-1] if r.reliable]
-        previous = earlier[-1] if earlier and latest.success else None
-        change = None
-        if previous is not None and len(previous.sections) == len(latest.sections):
-            change = k1_change_pct(latest.params.k1, previous.params.k1)
-        elif previous is not None:
-            previous = None  # another geometry: no section-by-section change
-        rows.append(PierRow(result=latest, events=len(events), previous=previous,
-                            k1_change_pct=change))
-    rows.sort(key=PierRow.sort_key)
-    return FleetSummary(rows=tuple(rows), failures=tuple(failures))
 
 
 def plot_fleet(summary: FleetSummary, path: str | Path) -> Path:

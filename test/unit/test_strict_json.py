@@ -20,7 +20,8 @@ from pier_monitor.core.fileio import finite_or_none, nan_if_none, to_strict_json
 from pier_monitor.core.identify.damage import IdentificationResult, failed_event_result
 from pier_monitor.core.model.config import PierGeometry
 from pier_monitor.report.compare import write_comparison
-from pier_monitor.report.fleet import summarize_store, write_fleet_summary
+from pier_monitor.fleet.summary import summarize_store
+from pier_monitor.report.fleet import write_fleet_summary
 from pier_monitor.store import FAILED_JSON, ResultsStore
 
 
