@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from .backends import Backend, FleetBackendError, Finished, LocalPool, RayBackend, Resources
 from .discover import find_bags
+from .offload import identify_offloaded
 from .progress import FleetProgress
 from .runner import FLEET_DIR, FleetOptions, FleetRun, run_fleet
 from .summary import pier_rows, summarize_store
@@ -18,4 +19,5 @@ from .tasks import EventDone, EventTask, KillOnce, identify_event
 
 __all__ = ["Backend", "EventDone", "EventTask", "FLEET_DIR", "FleetBackendError", "FleetOptions",
            "FleetProgress", "FleetRun", "Finished", "KillOnce", "LocalPool", "RayBackend",
-           "Resources", "find_bags", "identify_event", "pier_rows", "run_fleet", "summarize_store"]
+           "Resources", "find_bags", "identify_event", "identify_offloaded", "pier_rows",
+           "run_fleet", "summarize_store"]

@@ -33,8 +33,8 @@ keeps running.  A result that fails its self-check is published with every state
 name (it would become a directory) is refused with a logged error naming the field.
 
 With ``ray_address`` set, each training runs as a Ray task on that cluster
-(:func:`pier_monitor.fleet.identify_event`, the task of ``pier-monitor fleet``), so that the
-graphs of many piers on one machine are not bound by its CPUs; progress is then not
+(:func:`pier_monitor.fleet.offload.identify_offloaded`, the task of ``pier-monitor fleet``),
+so that the graphs of many piers on one machine are not bound by its CPUs; progress is then not
 published per epoch.
 """
 
@@ -52,10 +52,9 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import TrainingStopped, identify_window
-from pier_monitor.fleet import EventTask, RayBackend, identify_event
+from pier_monitor.fleet import RayBackend, identify_offloaded
 from pier_monitor.core.identify.methods import METHODS, IdentifySettings, Progress, prepare_method
 from pier_monitor.report.markers import DEFAULT_PARENT_FRAME, TF_STATIC_TOPIC
 from pier_monitor.report.results import damage_state_fields, k1_vs_design
@@ -209,7 +208,9 @@ class IdentifierNode(Node):
                                f"max {settings.max_epochs} epochs, device {settings.device})")
         try:
             if self._ray is not None:
-                result = self._identify_on_ray(window, settings)
+                result = identify_offloaded(self._ray, window, settings, self._store,
+                                            figures=bool(self._param("write_figures")),
+                                            stopped=lambda: self._closing)
             else:
                 result = identify_window(window, settings, self._store,
                                          progress=self._progress(window.event_id),
@@ -252,23 +253,6 @@ class IdentifierNode(Node):
             self.get_logger().error(f"parent_frame: {err}")
             return
         self._tf_pub.publish(msg)
-
-    def _identify_on_ray(self, window: MeasuredWindow, settings: IdentifySettings
-                         ) -> IdentificationResult:
-        """One window's identification as a Ray task; raises TrainingStopped at shutdown."""
-        self._store.start_event(window)  # on disk before it leaves this machine
-        self._ray.submit(window.event_id, identify_event, EventTask(
-            window=window, settings=settings, results_root=self._store.root.resolve(),
-            figures=bool(self._param("write_figures"))))
-        finished = []
-        while not finished:
-            if self._closing:
-                raise TrainingStopped()
-            finished = self._ray.wait(timeout_s=0.5)
-        if finished[0].value is not None:
-            return finished[0].value.result
-        return self._store.fail_window(window, device=settings.device,
-                                       message=f"Ray task failed: {finished[0].error}")
 
     def _progress(self, event_id: str) -> Callable[[Progress], None]:
         every = self._param("progress_every")

@@ -21,10 +21,14 @@ from mcap_ros2.decoder import DecoderFactory
 from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.cli import main
 from pier_monitor.core.identify.damage import IdentificationResult
-from pier_monitor.fleet import FleetOptions, KillOnce, LocalPool, RayBackend, run_fleet
+from pier_monitor.events import TrainingStopped
+from pier_monitor.fleet import (FleetOptions, KillOnce, LocalPool, RayBackend, identify_offloaded,
+                                run_fleet)
+from pier_monitor.fleet.tasks import IngestTask, ingest_bag
 from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.pipeline import identify_bag
 from pier_monitor.report.fleet import STATE_RANK
+from pier_monitor.store import WINDOW_NPZ, ResultsStore
 
 pytestmark = pytest.mark.timeout(400)
 
@@ -155,6 +159,28 @@ def test_ray_equals_sequential_retries_a_killed_task_once_and_reruns_nothing(
         assert (forced.identified, forced.skipped) == (1, 0)
         assert_same_results(forced.results, {k: v for k, v in sequential.items()
                                              if k.startswith("pier_001")})
+    finally:
+        backend.close()
+
+
+def test_one_window_offloaded_to_ray_equals_sequential_and_stops_when_asked(
+        fleet_dir, sequential, tmp_path):
+    """The identifier node's Ray path: one window as the fleet's task, waited for."""
+    (window,) = ingest_bag(IngestTask(fleet_dir / "pier_001")).windows
+    backend = RayBackend(num_cpus=1)
+    try:
+        store = ResultsStore(tmp_path / "results")
+        result = identify_offloaded(backend, window, TINY, store, figures=False)
+        assert_same_results({result.event_id: result}, {window.event_id:
+                                                        sequential[window.event_id]})
+        assert store.is_done(window.event_id)
+        assert_same_results(stored(store.root), {window.event_id: sequential[window.event_id]})
+
+        stopping = ResultsStore(tmp_path / "stopping")
+        with pytest.raises(TrainingStopped):
+            identify_offloaded(backend, window, TINY, stopping, figures=False,
+                               stopped=lambda: True)
+        assert (stopping.root / window.event_id / WINDOW_NPZ).is_file()  # kept for a restart
     finally:
         backend.close()
 
