@@ -10,6 +10,9 @@ imports, so must everything a layer loads.
     nodes    the only rclpy / *_msgs importer; uses the layers below, never torch itself
     cli, pipeline, events, store, bench, progress: orchestration over core, pinn, bags, report
     fleet    many bags on a process pool or a Ray cluster: over the layers above, never rclpy
+
+The report only renders: none of its modules loads what identifies (the PINN, the front
+door and its methods) or keeps results (events, the store, the fleet).
 """
 
 from __future__ import annotations
@@ -220,6 +223,42 @@ def test_what_a_layer_loads_stays_within_it(module: str) -> None:
     _, third = loaded_by(module)
     forbidden = sorted(third & NEVER_LOADED[layer(module)])
     assert not forbidden, f"importing {module} loads {forbidden}"
+
+
+#: What identifies or keeps results: the report renders results it is given, so none of its
+#: modules may load these (following the package's own imports), by name or package prefix.
+IDENTIFYING = ("pier_monitor.pinn", "pier_monitor.core.identify.methods",
+               "pier_monitor.core.identify.equation_error", "pier_monitor.core.identify.field",
+               "pier_monitor.core.identify.ensemble", "pier_monitor.core.identify.families",
+               "pier_monitor.core.identify.selfcheck", "pier_monitor.events",
+               "pier_monitor.pipeline", "pier_monitor.store", "pier_monitor.fleet")
+
+
+def _is_identifying(module: str) -> bool:
+    return any(module == name or module.startswith(name + ".") for name in IDENTIFYING)
+
+
+@pytest.mark.parametrize("module", sorted(m for m in modules() if layer(m) == "report"))
+def test_the_report_only_renders(module: str) -> None:
+    direct = sorted({t for i in imports_of(module)
+                     if (t := project_target(i.module)) and _is_identifying(t)})
+    assert not direct, f"{module} imports {direct}"
+    project, _ = loaded_by(module)
+    loaded = sorted(m for m in project if _is_identifying(m))
+    assert not loaded, f"importing {module} loads {loaded}"
+
+
+def test_the_report_scan_sees_an_identifying_import() -> None:
+    """The check above is not vacuous: a report module importing the front door, the PINN
+    or the store is caught, a result type is not."""
+    source = ("from pier_monitor.core.identify.methods import identify\n"
+              "from pier_monitor.core.identify.damage import IdentificationResult\n"
+              "import pier_monitor.pinn.trainer\n"
+              "from pier_monitor import store\n")
+    found = parse_imports(source, "pier_monitor.report.figures")
+    hits = sorted({t for i in found if (t := project_target(i.module)) and _is_identifying(t)})
+    assert hits == ["pier_monitor.core.identify.methods", "pier_monitor.pinn.trainer",
+                    "pier_monitor.store"]
 
 
 def test_the_ingest_node_does_not_load_the_pinn() -> None:
