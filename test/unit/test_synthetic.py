@@ -339,3 +339,16 @@ def test_core_synthetic_imports_no_ros_or_bag_packages():
             "print(bad); sys.exit(1 if bad else 0)")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_a_run_plays_the_el_centro_record_at_its_pga():
+    from pier_monitor.core.model.ground_motion import el_centro_1940
+    from pier_monitor.core.synthetic.shaking_table import _table_records
+    run = RunSpec("elc", pga_mps2=2.0, duration_s=30.0, record="el_centro_1940")
+    principal, transverse, _ = _table_records(run, 50.0, (1, 2, 3))
+    assert principal.shape == transverse.shape == (1501,)
+    ref = el_centro_1940().acc[:1501]  # the record's own 0.02 s step is 50 Hz
+    assert np.corrcoef(principal, ref)[0, 1] > 0.99
+    assert abs(np.abs(principal).max() - 2.0) < 0.1
+    with pytest.raises(InputDataError, match="record"):
+        _table_records(replace(run, record="kobe"), 50.0, (1, 2, 3))

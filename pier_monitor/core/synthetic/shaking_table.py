@@ -56,7 +56,7 @@ from pier_monitor.core.model.config import PierConfig, PierGeometry, SpringParam
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.fileio import to_strict_json
 from pier_monitor.core.identify.damage import ductility_factors
-from pier_monitor.core.model.ground_motion import synthetic_near_fault
+from pier_monitor.core.model.ground_motion import el_centro_1940, synthetic_near_fault
 from pier_monitor.core.model.link_model import natural_periods
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord, sample_times_ns
 from pier_monitor.core.model.solver import Response, simulate
@@ -124,6 +124,10 @@ class RunSpec:
     motion_seed : int or None
         Seed of the principal record (the transverse and vertical records' seeds derive from
         it); ``None`` derives all three from the seed of :func:`generate_recording`.
+    record : {"synthetic", "el_centro_1940"}
+        Principal component: the seeded synthetic near-fault record, or the 1940 El Centro NS
+        record shipped with the package (scaled to ``pga_mps2``, cut or padded with zeros to
+        ``duration_s``; the strong-motion and pulse fields are then unused).
     """
 
     name: str
@@ -140,6 +144,7 @@ class RunSpec:
     c_factors: tuple[float, ...] = ()
     added_top_mass_kg: float = 0.0
     motion_seed: int | None = None
+    record: str = "synthetic"
 
     def _factors(self, name: str, n: int, default: tuple[float, ...] = ()) -> np.ndarray:
         values = getattr(self, name) or default
@@ -502,13 +507,29 @@ def _integrate(acc: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
+#: Principal records a run can play (:attr:`RunSpec.record`).
+RECORDS = ("synthetic", "el_centro_1940")
+
+
+def _principal_record(run: RunSpec, dt: float, seed: int, kwargs: dict) -> np.ndarray:
+    """The principal table record of ``run`` at step ``dt``, m/s²."""
+    if run.record == "synthetic":
+        return synthetic_near_fault(pga_mps2=run.pga_mps2, pulse_period_s=run.pulse_period_s,
+                                    seed=seed, **kwargs).acc
+    if run.record == "el_centro_1940":
+        acc = el_centro_1940().resampled(dt).scaled_to_pga(run.pga_mps2).acc
+        n = int(round(run.duration_s / dt)) + 1
+        return np.pad(acc[:n], (0, max(0, n - acc.size)))
+    raise InputDataError(f"run {run.name}: record: expected one of {list(RECORDS)}, got "
+                         f"{run.record!r}")
+
+
 def _table_records(run: RunSpec, rate_hz: float,
                    seeds: tuple[int, int, int]) -> tuple[np.ndarray, ...]:
     dt = 1.0 / rate_hz
     kwargs = dict(duration_s=run.duration_s, dt=dt, strong_start_s=run.strong_start_s,
                   strong_duration_s=run.strong_duration_s)
-    p = synthetic_near_fault(pga_mps2=run.pga_mps2, pulse_period_s=run.pulse_period_s,
-                             seed=seeds[0], **kwargs).acc
+    p = _principal_record(run, dt, seeds[0], kwargs)
     comps = [_zero_final_velocity(p, dt)]
     for ratio, seed, extra in ((run.transverse_ratio, seeds[1],
                                 dict(pulse_share=0.15, pulse_period_s=0.8 * run.pulse_period_s)),
