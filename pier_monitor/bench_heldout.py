@@ -43,7 +43,7 @@ from pier_monitor.core.resources import find_config_file
 from pier_monitor.core.synthetic.field import field_pier, field_recording
 from pier_monitor.core.synthetic.shaking_table import Scenario
 from pier_monitor.events import identify_window
-from pier_monitor.report.store import ResultsStore
+from pier_monitor.store import ResultsStore
 
 __all__ = ["HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
            "summarize_heldout"]
