@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.bags import read_bag
-from pier_monitor.bench_heldout import heldout_suite
+from pier_monitor.bench_heldout import heldout_suite, true_ductility
 from pier_monitor.bench_live import bench_latency
 from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
@@ -698,13 +698,7 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
     syn = field_case_recording(pier, layout, False, shaking, seed, hysteresis=hyst)
     window, truth, _ = _field_window(syn, name)
     window = dataclasses.replace(window, event_id=f"rc_{hyst}_{pier}_{layout}_{shaking}_{seed}")
-    run_truth = syn.truth.runs[0]
-    if run_truth.rc is not None:
-        true_df = np.asarray(run_truth.rc.ductility_factor, dtype=float)
-        yielded = np.asarray(run_truth.rc.yielded, dtype=bool)
-    else:
-        true_df = np.asarray(run_truth.ductility_factors, dtype=float)
-        yielded = true_df > 1.0
+    true_df, yielded = true_ductility(syn.truth.runs[0])
     started = time.perf_counter()
     outcome = identify_window(window, IdentifySettings(seed=seed), store, figures=False)
     wall = time.perf_counter() - started

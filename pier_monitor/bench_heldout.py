@@ -45,7 +45,7 @@ from pier_monitor.core.synthetic.shaking_table import Scenario
 from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 
-__all__ = ["HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
+__all__ = ["true_ductility", "HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
            "summarize_heldout"]
 
 #: Seeds of the suite; nothing in the product was chosen on them.
@@ -65,6 +65,17 @@ DESIGN_LOG_SD = 0.25
 #: Relative margin (beyond the interval) at which a k1 shown as identified is "confidently
 #: wrong".
 K1_CONFIDENT_MARGIN = 0.05
+
+
+def true_ductility(run_truth) -> tuple[np.ndarray, np.ndarray]:
+    """The true DF per section (N,) of a synthetic run's truth and whether each section
+    yielded (N,): the bilinear springs' DF and DF > 1, or for the RC test-bed the DF on the
+    idealised yield of the skeleton and whether the reinforcement yielded."""
+    if run_truth.rc is not None:
+        return (np.asarray(run_truth.rc.ductility_factor, dtype=float),
+                np.asarray(run_truth.rc.yielded, dtype=bool))
+    true_df = np.asarray(run_truth.ductility_factors, dtype=float)
+    return true_df, true_df > 1.0
 
 
 def heldout_case(pier: str, layout: str, seed: int, hysteresis: str = "bilinear"):
@@ -100,12 +111,7 @@ def heldout_case(pier: str, layout: str, seed: int, hysteresis: str = "bilinear"
     design = SpringParameters(*(getattr(params, k) * factors[k] for k in ("k1", "k2", "fy", "c")))
     window = dataclasses.replace(windows[0], design=design,
                                  event_id=f"heldout_{pier}_{layout}_{hysteresis}_{seed}")
-    if truth_run.rc is not None:
-        true_df = np.asarray(truth_run.rc.ductility_factor, dtype=float)
-        yielded = np.asarray(truth_run.rc.yielded, dtype=bool)
-    else:
-        true_df = np.asarray(truth_run.ductility_factors, dtype=float)
-        yielded = true_df > 1.0
+    true_df, yielded = true_ductility(truth_run)
     info = {"shaking": shaking, "record": record, "pga_mps2": round(pga, 3),
             "design_factors": {k: [round(float(v), 3) for v in f] for k, f in factors.items()}}
     return window, params, true_df, yielded, info
