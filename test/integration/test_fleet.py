@@ -22,14 +22,15 @@ from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
 from pier_monitor.cli import main
 from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.fleet import FleetOptions, KillOnce, LocalPool, RayBackend, run_fleet
-from pier_monitor.core.identify.methods import IdentifySettings
+from pier_monitor.core.identify.methods import IdentifySettings, PinnSettings
 from pier_monitor.core.ingest import IngestSettings
 from pier_monitor.pipeline import identify_bag
 from pier_monitor.report.fleet import STATE_RANK
 
 pytestmark = pytest.mark.timeout(400)
 
-TINY = IdentifySettings(method="pinn", device="cpu", seed=0, max_epochs=12, min_epochs=1)
+TINY = IdentifySettings(method="pinn", device="cpu", seed=0,
+                        pinn_settings=PinnSettings(max_epochs=12, min_epochs=1))
 
 
 @pytest.fixture(scope="module")
