@@ -19,7 +19,7 @@ cases = [("pinn1", w, dict(max_epochs=60, min_epochs=10)),
 for pier, layout, m in [("edefense", "accel", 1), ("table1", "sparse", 1), ("edefense", "accel", 8)]:
     cases.append((f"{pier}_{layout}_{m}", field_case(pier, layout, False, "strong", 1)[0], dict(members=m)))
 for name, win, kw in cases:
-    r = identify(win, S(**kw))
+    r = identify(win, getattr(S, "from_flat", S)(**kw))  # flat keywords, before and after
     d = r.result.to_dict(); d.pop("wall_time_s", None); d.pop("settings", None)
     out[name] = d
     print(name, r.result.overall_state, file=sys.stderr)

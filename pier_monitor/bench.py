@@ -43,7 +43,8 @@ from pier_monitor.core.synthetic.shaking_table import (RunSpec, Scenario, Synthe
 from pier_monitor.core.synthetic.reference import (paper_case_window, realistic_case_window,
                                                    table1_model)
 from pier_monitor.fleet import FleetOptions, LocalPool, RayBackend, run_fleet
-from pier_monitor.core.identify.methods import IdentificationRun, IdentifySettings, identify
+from pier_monitor.core.identify.methods import (IdentificationRun, IdentifySettings, PinnSettings,
+                                               identify)
 
 __all__ = ["bench_solver", "bench_ingest", "bench_paper", "bench_more", "bench_fleet",
            "run_identification_case",
@@ -395,7 +396,8 @@ def bench_fleet(piers: int = 4, max_epochs: int = 100) -> list[dict[str, Any]]:
     start-up is timed apart, and its overhead per task is its wall time less the local
     pool's with as many workers, per event.
     """
-    settings = IdentifySettings(device="cpu", seed=0, max_epochs=max_epochs, min_epochs=1)
+    settings = IdentifySettings(device="cpu", seed=0, pinn_settings=PinnSettings(
+        max_epochs=max_epochs, min_epochs=1))
     options = FleetOptions(settings=settings, figures=False)
     out: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -265,8 +265,9 @@ def _settings(args: argparse.Namespace) -> IdentifySettings:
     if args.members is not None:
         settings.members = args.members
     if args.max_epochs is not None:
-        settings.max_epochs = args.max_epochs
-        settings.min_epochs = min(settings.min_epochs, args.max_epochs)
+        pinn = settings.pinn_settings
+        pinn.max_epochs = args.max_epochs
+        pinn.min_epochs = min(pinn.min_epochs, args.max_epochs)
     return settings
 
 

@@ -12,6 +12,10 @@ gets an outcome of its own, and one event's failure never costs another its resu
   ending during it) gets ``<out>/<event_id>/failed.json`` with the ingest's reason, naming
   the level, sensors, time and cause.
 
+Reading a bag into its events is :func:`read_bag_events`, the one step ``identify_bag`` and a
+fleet's ingest task (:func:`pier_monitor.fleet.tasks.ingest_bag`) share: each detected event
+comes back with its window or, without one, its failure record.
+
 Events are identified in time order; the baseline of each is the earliest earlier reliable
 result of the same pier in ``out`` (:class:`~pier_monitor.store.ResultsStore`): in an
 empty directory, the first event of the bag.
@@ -39,9 +43,102 @@ from pier_monitor.events import EventOutcome, identify_window
 from pier_monitor.core.identify.methods import IdentifySettings, Progress
 from pier_monitor.store import ResultsStore
 
-__all__ = ["BagOutcome", "identify_bag"]
+__all__ = ["BagEvent", "BagEvents", "BagOutcome", "identify_bag", "read_bag_events"]
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class BagEvent:
+    """One detected event of a bag: its window, or why it has none.
+
+    Attributes
+    ----------
+    ingest : EventIngest
+        What the ingest made of the event (its window, findings, status).
+    failure : IdentificationResult or None
+        For an event the ingest gave no window of (failed, or cut by the end of the data):
+        its failure record (``success`` false, every section ``unknown``, the ingest's
+        reason in ``message``), to be written as its ``failed.json``; None with a window.
+    """
+
+    ingest: EventIngest
+    failure: IdentificationResult | None = None
+
+    @property
+    def event_id(self) -> str:
+        return self.ingest.event_id
+
+    @property
+    def window(self) -> MeasuredWindow | None:
+        return self.ingest.window
+
+
+@dataclass(frozen=True)
+class BagEvents:
+    """A bag read and ingested (:func:`read_bag_events`): every detected event, in time order.
+
+    Attributes
+    ----------
+    bag : Path
+    pier_id : str
+        The pier of the bag's configuration.
+    events : tuple of BagEvent
+        One per detected event: its window or its failure record.
+    ingest_report : IngestReport
+        Every finding of the ingest, by sensor and time.
+    bag_findings : tuple of Finding
+        What reading the bag found (e.g. ``bag_truncated``: where its data end).
+    """
+
+    bag: Path
+    pier_id: str
+    events: tuple[BagEvent, ...]
+    ingest_report: IngestReport
+    bag_findings: tuple[Finding, ...] = ()
+
+    @property
+    def windows(self) -> tuple[MeasuredWindow, ...]:
+        """The windows of the events that have one, in time order."""
+        return tuple(ev.window for ev in self.events if ev.window is not None)
+
+
+def read_bag_events(bag: str | Path, *, config: PierConfig | None = None,
+                    ingest_settings: IngestSettings | None = None) -> BagEvents:
+    """Read a bag, find its events, and give each event its window or its failure record.
+
+    The one reading of a bag into events, for ``pier-monitor identify``
+    (:func:`identify_bag`) and for a fleet's ingest task: an event with a window is to be
+    identified, an event without one is recorded as failed (its ``failed.json``, built here
+    by :func:`~pier_monitor.core.identify.damage.failed_event_result` with the ingest's
+    reason, naming the level, sensors, time and cause).
+
+    Parameters
+    ----------
+    bag : str or Path
+        A rosbag2 directory or a plain ``.mcap`` file.
+    config : PierConfig, optional
+        Pier configuration to use instead of the one in the bag.
+    ingest_settings : IngestSettings, optional
+
+    Raises
+    ------
+    BagError
+        The bag cannot be read, or holds no samples of the configuration's sensors (a pier
+        id that does not match the bag's topics is named as such).
+    IngestError
+        Nothing of the bag can be ingested.
+    """
+    bag = Path(bag)
+    recording = read_bag(bag, config=config)
+    if not recording.sensors:
+        raise _no_samples(bag, recording)
+    _, report = ingest_recording(recording, ingest_settings)
+    events = tuple(BagEvent(ingest, None if ingest.window is not None
+                            else _ingest_failure(ingest, recording))
+                   for ingest in report.outcomes)
+    return BagEvents(bag=bag, pier_id=recording.config.pier_id, events=events,
+                     ingest_report=report, bag_findings=recording.findings)
 
 
 @dataclass(frozen=True)
@@ -113,22 +210,19 @@ def identify_bag(bag: str | Path, out_dir: str | Path, *, settings: IdentifySett
     """
     bag = Path(bag)
     store = ResultsStore(out_dir).create()
-    recording = read_bag(bag, config=config)
-    if not recording.sensors:
-        raise _no_samples(bag, recording)
-    _, report = ingest_recording(recording, ingest_settings)
+    read = read_bag_events(bag, config=config, ingest_settings=ingest_settings)
     settings = settings or IdentifySettings()
     events = []
-    for ingest in report.outcomes:
-        if ingest.window is None:
-            events.append(_record_ingest_failure(ingest, recording, store))
+    for event in read.events:
+        if event.failure is not None:
+            events.append(_failed_outcome(event.failure, store, None, event.ingest))
             continue
         callback = None
         if progress is not None:
-            callback = (lambda p, eid=ingest.event_id: progress(eid, p))
-        events.append(_identify(ingest, settings, store, callback, figures))
-    return BagOutcome(bag=bag, events=tuple(events), ingest_report=report,
-                      bag_findings=recording.findings)
+            callback = (lambda p, eid=event.event_id: progress(eid, p))
+        events.append(_identify(event.ingest, settings, store, callback, figures))
+    return BagOutcome(bag=bag, events=tuple(events), ingest_report=read.ingest_report,
+                      bag_findings=read.bag_findings)
 
 
 def _identify(ingest: EventIngest, settings: IdentifySettings, store: ResultsStore,
@@ -162,16 +256,14 @@ def _failed_outcome(failed: IdentificationResult, store: ResultsStore,
                         paths=None, ingest=ingest)
 
 
-def _record_ingest_failure(ingest: EventIngest, recording: Recording,
-                           store: ResultsStore) -> EventOutcome:
-    """An event without a window: its failure record, with the ingest's reason."""
+def _ingest_failure(ingest: EventIngest, recording: Recording) -> IdentificationResult:
+    """The failure record of an event without a window, with the ingest's reason."""
     config = recording.config_at(ingest.start_ns)
-    result = failed_event_result(
+    return failed_event_result(
         config.geometry, pier_id=config.pier_id, event_id=ingest.event_id,
         start_ns=ingest.start_ns, duration_s=(ingest.end_ns - ingest.start_ns) / NS_PER_S,
         window_start_s=(ingest.start_ns - recording.start_ns) / NS_PER_S,
         message=f"ingest: {ingest.failure}", findings=ingest.findings)
-    return _failed_outcome(result, store, None, ingest)
 
 
 def _no_samples(bag: Path, recording: Recording) -> BagError:

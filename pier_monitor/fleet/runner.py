@@ -8,7 +8,10 @@
 2. Each other bag is ingested by a task of its own; its windows come back to the driver,
    which stores each window in its event directory (:meth:`ResultsStore.start_event`: an
    earlier outcome of the event is removed, a crash later loses nothing) and records the
-   bag's events.  An event that already has a result is skipped (unless ``force``).
+   bag's events.  An event that already has a result is skipped (unless ``force``).  An
+   event the ingest gave no window of (failed, or cut by the end of the data) is recorded
+   as failed there and then (its ``failed.json`` with the ingest's reason, as
+   ``pier-monitor identify`` writes it: :func:`~pier_monitor.pipeline.read_bag_events`).
 3. Each event is identified by a task of its own (:func:`~pier_monitor.fleet.tasks.
    identify_event`, i.e. :func:`~pier_monitor.events.identify_window`).  Results are keyed
    by event id and written atomically by the store.  The baseline of an event is the
@@ -206,7 +209,7 @@ def _read_record(out: Path, bag: Path) -> dict[str, Any] | None:
 def _write_record(out: Path, bag: Path, fingerprint: str, got: BagWindows) -> None:
     path = _record_path(out, bag)
     doc = {"bag": str(bag.resolve()), "fingerprint": fingerprint, "pier_id": got.pier_id,
-           "events": [w.event_id for w in got.windows]}
+           "events": [ev.event_id for ev in got.events]}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp:
@@ -287,7 +290,7 @@ def run_fleet(paths: Sequence[str | Path], out: str | Path, backend: Backend,
     identified = failed = 0
 
     def ingested(fin: Finished) -> None:
-        nonlocal skipped
+        nonlocal skipped, failed
         bag, fingerprint, pier = fingerprints[fin.key]
         schedule.open_bags[pier] -= 1
         got: BagWindows | None = fin.value
@@ -297,17 +300,25 @@ def run_fleet(paths: Sequence[str | Path], out: str | Path, backend: Backend,
             if progress is not None:
                 progress.note(f"{bag}: not ingested: {error}")
             return
-        new = 0
-        for window in got.windows:
-            if not options.force and store.is_done(window.event_id):
+        new, no_window = 0, []
+        for event in got.events:
+            if not options.force and store.is_done(event.event_id):
                 skipped += 1
                 continue
-            store.start_event(window)
-            schedule.add(window)
+            if event.failure is not None:  # no window: its failure record, now
+                store.record_failure(event.failure)
+                results[event.event_id] = event.failure
+                no_window.append(event.failure)
+                continue
+            store.start_event(event.window)
+            schedule.add(event.window)
             new += 1
         _write_record(out, bag, fingerprint, got)
+        failed += len(no_window)
         if progress is not None:
-            progress.add(len(got.windows), skipped=len(got.windows) - new)
+            progress.add(len(got.events), skipped=len(got.events) - new - len(no_window))
+            for result in no_window:
+                progress.finished(result.event_id, result.overall_state, False, result.message)
 
     def identified_event(fin: Finished) -> None:
         nonlocal identified, failed, first_result_s

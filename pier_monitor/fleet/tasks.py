@@ -2,8 +2,11 @@
 
 Both are plain module-level functions of picklable arguments, so that a process pool and a
 Ray cluster run the same code.  Neither raises for bad data: a bag that cannot be read comes
-back as a :class:`BagWindows` with its ``error``, a training that fails is recorded by
-:func:`~pier_monitor.events.identify_window` as the event's ``failed.json``.
+back as a :class:`BagWindows` with its ``error``, an event the ingest gave no window of comes
+back with its failure record (:func:`~pier_monitor.pipeline.read_bag_events`, as for
+``pier-monitor identify``; the driver writes it as the event's ``failed.json``), a training
+that fails is recorded by :func:`~pier_monitor.events.identify_window` as the event's
+``failed.json``.
 
 :class:`KillOnce` is a fault for tests only: a fleet run is handed one explicitly (the
 command line never does), and it kills the process of the first attempt at one event.
@@ -18,13 +21,13 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from pier_monitor.bags import read_bag
 from pier_monitor.core.errors import PierMonitorError
 from pier_monitor.core.identify.damage import IdentificationResult
-from pier_monitor.core.ingest import IngestSettings, ingest_recording
+from pier_monitor.core.ingest import IngestSettings
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.events import identify_window
 from pier_monitor.core.identify.methods import IdentifySettings, Progress
+from pier_monitor.pipeline import BagEvent, read_bag_events
 from pier_monitor.store import ResultsStore
 
 __all__ = ["BagWindows", "EventDone", "EventTask", "IngestTask", "KillOnce", "identify_event",
@@ -33,12 +36,18 @@ __all__ = ["BagWindows", "EventDone", "EventTask", "IngestTask", "KillOnce", "id
 
 @dataclass(frozen=True)
 class BagWindows:
-    """What ingesting one bag gave: its pier, its windows in time order, or why it failed."""
+    """What ingesting one bag gave: its pier, its events in time order (each with its window
+    or its failure record, :class:`~pier_monitor.pipeline.BagEvent`), or why it failed."""
 
     bag: Path
     pier_id: str
-    windows: tuple[MeasuredWindow, ...]
+    events: tuple[BagEvent, ...]
     error: str = ""
+
+    @property
+    def windows(self) -> tuple[MeasuredWindow, ...]:
+        """The windows of the events that have one, in time order."""
+        return tuple(ev.window for ev in self.events if ev.window is not None)
 
 
 @dataclass(frozen=True)
@@ -50,20 +59,16 @@ class IngestTask:
 
 
 def ingest_bag(task: IngestTask) -> BagWindows:
-    """Read a bag and cut its event windows (:func:`~pier_monitor.core.ingest.ingest_recording`).
+    """Read a bag into its events (:func:`~pier_monitor.pipeline.read_bag_events`, as
+    ``pier-monitor identify`` does): each with its window or its failure record.
 
     A bag that cannot be read or ingested comes back with ``error`` naming what is wrong.
     """
-    bag, settings = task.bag, task.settings
     try:
-        recording = read_bag(bag)
-        if not recording.sensors:
-            return BagWindows(bag, recording.config.pier_id, (), "the bag holds no samples of "
-                              "any sensor of the configuration's map")
-        windows, _ = ingest_recording(recording, settings)
+        read = read_bag_events(task.bag, ingest_settings=task.settings)
     except PierMonitorError as err:
-        return BagWindows(bag, "", (), str(err))
-    return BagWindows(bag, recording.config.pier_id, tuple(windows))
+        return BagWindows(task.bag, "", (), str(err))
+    return BagWindows(task.bag, read.pier_id, read.events)
 
 
 @dataclass(frozen=True)

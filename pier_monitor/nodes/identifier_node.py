@@ -69,7 +69,8 @@ from .qos import DAMAGE_STATE_QOS, TF_STATIC_QOS, WINDOW_QOS
 __all__ = ["IdentifierNode", "main", "DEVICES"]
 
 DEVICES = ("auto", "cpu", "cuda")
-#: Parameters that are IdentifySettings fields of the same name.
+#: Parameters that are IdentifySettings fields of the same name, flat
+#: (:meth:`IdentifySettings.from_flat`: the PINN's are PinnSettings fields).
 _SETTINGS = ("device", "seed", "max_epochs", "min_epochs", "patience", "pair_stride", "hidden",
              "layers", "lr_network", "lr_params", "members", "method")
 
@@ -80,6 +81,7 @@ class IdentifierNode(Node):
     def __init__(self, name: str = "identifier", **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         d = IdentifySettings()  # defaults: the benchmarked settings, as offline
+        dp = d.pinn_settings
         self._window_dir = Path(declare(
             self, "window_dir", "pier_monitor_data/windows", "Directory where the ingest node "
             "writes windows; scanned at start for windows without results", read_only=True))
@@ -90,19 +92,19 @@ class IdentifierNode(Node):
                 "CPU (with a warning)", choices=DEVICES)
         declare(self, "seed", d.seed, "Seed of the network initialisation and sampling",
                 lo=0, hi=2 ** 31 - 1)
-        declare(self, "max_epochs", d.max_epochs, "Upper limit of training epochs",
+        declare(self, "max_epochs", dp.max_epochs, "Upper limit of training epochs",
                 lo=1, hi=1_000_000)
-        declare(self, "min_epochs", d.min_epochs, "Epochs before early stopping may end training",
-                lo=0, hi=1_000_000)
-        declare(self, "patience", d.patience, "Early stopping: epochs without a parameter move",
+        declare(self, "min_epochs", dp.min_epochs, "Epochs before early stopping may end "
+                "training", lo=0, hi=1_000_000)
+        declare(self, "patience", dp.patience, "Early stopping: epochs without a parameter move",
                 unit="epochs", lo=1, hi=1_000_000)
-        declare(self, "pair_stride", d.pair_stride, "Training pairs every pair_stride samples",
+        declare(self, "pair_stride", dp.pair_stride, "Training pairs every pair_stride samples",
                 unit="samples", lo=1, hi=1000)
-        declare(self, "hidden", d.hidden, "Units per hidden layer", lo=1, hi=4096)
-        declare(self, "layers", d.layers, "Hidden layers", lo=1, hi=64)
-        declare(self, "lr_network", d.lr_network, "Adam learning rate of the network",
+        declare(self, "hidden", dp.hidden, "Units per hidden layer", lo=1, hi=4096)
+        declare(self, "layers", dp.layers, "Hidden layers", lo=1, hi=64)
+        declare(self, "lr_network", dp.lr_network, "Adam learning rate of the network",
                 lo=1e-9, hi=1.0)
-        declare(self, "lr_params", d.lr_params, "Adam learning rate of the log-parameters",
+        declare(self, "lr_params", dp.lr_params, "Adam learning rate of the log-parameters",
                 lo=1e-9, hi=1.0)
         declare(self, "members", d.members, "Ensemble members identified together (the "
                 "uncertainty of every number; 1: none)", lo=1, hi=1024)
@@ -185,7 +187,7 @@ class IdentifierNode(Node):
 
     def settings(self) -> IdentifySettings:
         """The IdentifySettings of the current parameters."""
-        return IdentifySettings(**{n: self._param(n) for n in _SETTINGS})
+        return IdentifySettings.from_flat(**{n: self._param(n) for n in _SETTINGS})
 
     # -- callbacks: only enqueue ------------------------------------------------------------
     def _on_window(self, msg: MainshockWindow) -> None:
@@ -205,7 +207,8 @@ class IdentifierNode(Node):
             return
         settings = self.settings()
         self.get_logger().info(f"training on {window.event_id} ({window.duration_s:.2f} s, "
-                               f"max {settings.max_epochs} epochs, device {settings.device})")
+                               f"max {settings.pinn_settings.max_epochs} epochs, device "
+                               f"{settings.device})")
         try:
             if self._ray is not None:
                 result = identify_offloaded(self._ray, window, settings, self._store,

@@ -71,6 +71,7 @@ class _PinnProblem:
         window = windows[0]
         self.window = window
         self.settings = settings
+        self.pinn = settings.pinn_settings
         self.device = device
         self.members = len(windows)
         dt_ = torch.float64
@@ -80,7 +81,7 @@ class _PinnProblem:
         b = angle_matrix(window.geometry.section_heights_m)
         self.phys = Physics(tt(b), tt(window.geometry.masses_kg), window.dt)
         t_len = window.t.size
-        self.idx0 = np.arange(0, t_len - 1, settings.pair_stride)
+        self.idx0 = np.arange(0, t_len - 1, self.pinn.pair_stride)
         idx1 = self.idx0 + 1
         span = window.t[-1] - window.t[0]
         self.tau_all = tt(2.0 * (window.t - window.t[0]) / span - 1.0)[:, None]
@@ -155,7 +156,7 @@ class _PinnProblem:
         out = []
         for inst, d in ((0, d0), (1, d1)):
             for qi, q in enumerate(("a", "v", "x", "f")):
-                if self.settings.residual:
+                if self.pinn.residual:
                     out.append(d[q] + self.noise[q] * raw[:, :, inst, qi])
                 else:
                     out.append(self.scale[q] * raw[:, :, inst, qi])
@@ -194,7 +195,7 @@ class _PinnProblem:
 
     def total(self, terms: dict[str, torch.Tensor]) -> torch.Tensor:
         """The loss of each member (terms of shape (...))."""
-        s = self.settings
+        s = self.pinn
         physics = sum(s.term_weights.get(k, 1.0) * terms[k] for k in TERMS[1:])
         return s.data_weight * terms["data"] + s.physics_weight * physics
 
@@ -243,7 +244,7 @@ def _paper_rule_step(problem: _PinnProblem, pairs: PairTensors, tg: dict[str, to
             dc = (batch[:, 3, :] - k[3]).unsqueeze(-2)  # (S, 1, N)
             sh0 = -problem.phys.angles(tg["v0"]) * dc
             sh1 = -problem.phys.angles(tg["v1"]) * dc
-            shifted = problem.settings.residual
+            shifted = problem.pinn.residual
             pairs = PairTensors(pairs.a0, pairs.v0, pairs.x0, pairs.f0 + sh0 * shifted,
                                 pairs.a1, pairs.v1, pairs.x1, pairs.f1 + sh1 * shifted)
             tg = dict(tg, f0=tg["f0"] + sh0, f1=tg["f1"] + sh1)
@@ -277,7 +278,8 @@ def train_pinn(window: MeasuredWindow, settings: IdentifySettings,
     window : MeasuredWindow
         The event window, a displacement and an acceleration at every level.
     settings : IdentifySettings
-        Training settings (validated by the caller).
+        Training settings (validated by the caller): ``settings.pinn_settings`` the
+        training's, ``settings.equation_error_settings`` its start's and yield test's.
     callback : callable, optional
         Called with a :class:`Progress` after every epoch.
 
@@ -292,18 +294,19 @@ def train_pinn(window: MeasuredWindow, settings: IdentifySettings,
     device = resolve_device(settings.device)
     torch.manual_seed(settings.seed)
     np.random.seed(settings.seed)
-    if settings.init == "equation_error":
+    pinn = settings.pinn_settings
+    if pinn.init == "equation_error":
         fit = fit_equation_error(window.geometry, window.x, window.v, window.a, window.ag,
                                  window.design, moments=window.moments,
-                                 yield_score=settings.yield_score)
+                                 yield_score=settings.equation_error_settings.yield_score)
         init, yielded0 = fit.params, fit.yielded
     else:
         init, yielded0 = window.design, np.ones(window.n_levels, dtype=bool)
     windows = member_windows(window, settings.members, seed=settings.seed)
     problem = _PinnProblem(windows, settings, device, init)
-    n_fourier = settings.n_fourier or int(min(32, max(8, problem.idx0.size // 4)))
-    net = MemberNet(problem.members, 8 * window.n_levels, settings.arch, settings.hidden,
-                    settings.layers, n_fourier).to(device=device)
+    n_fourier = pinn.n_fourier or int(min(32, max(8, problem.idx0.size // 4)))
+    net = MemberNet(problem.members, 8 * window.n_levels, pinn.arch, pinn.hidden,
+                    pinn.layers, n_fourier).to(device=device)
     ref, free = _start(problem, init, yielded0)
     logp = torch.zeros_like(ref, requires_grad=True)
     _project(logp, ref, problem.f_cap)
@@ -330,7 +333,7 @@ def _start(problem: _PinnProblem, init: SpringParameters, yielded0: np.ndarray
     if problem.members > 1:
         gen = torch.Generator(device="cpu").manual_seed(settings.seed + 1)
         draw = torch.randn(problem.members - 1, 4, n, generator=gen, dtype=torch.float64)
-        spread[1:] = torch.exp(settings.member_start_sd * draw).to(device)
+        spread[1:] = torch.exp(problem.pinn.member_start_sd * draw).to(device)
     ref = start * spread
     free = torch.ones_like(ref)
     free[:, 1] = torch.where(held, 0.0, 1.0)
@@ -342,14 +345,14 @@ def _paper_rule_update(problem: _PinnProblem, logp: torch.Tensor, ref: torch.Ten
                        free: torch.Tensor, pairs: PairTensors,
                        tg: dict[str, torch.Tensor]) -> None:
     """One step of the paper's Fig. 6 rule on member 0's parameters, in place."""
-    settings, window = problem.settings, problem.window
+    pinn, window = problem.pinn, problem.window
     with torch.no_grad():
         k_now = torch.stack(_params_from_log(logp[0], ref[0]))
-        k_in = ref[0] if settings.init == "design" else torch.as_tensor(
+        k_in = ref[0] if pinn.init == "design" else torch.as_tensor(
             np.stack([window.design.k1, window.design.k2, window.design.fy,
                       window.design.c]), dtype=torch.float64, device=problem.device)
         new = _paper_rule_step(problem, _detach(pairs), _detach_dict(tg), k_now, k_in,
-                               settings.paper_lr2, free[0])
+                               pinn.paper_lr2, free[0])
         logp[0].copy_(torch.log(new / ref[0]))
 
 
@@ -358,16 +361,16 @@ def _train(problem: _PinnProblem, net: MemberNet, logp: torch.Tensor, ref: torch
            ) -> tuple[int, float, dict[str, list[Any]]]:
     """The training loop; returns the last epoch, its loss and the history.  Stops once no
     free parameter of any member moved by more than ``tol`` over ``patience`` epochs."""
-    settings, n = problem.settings, problem.n
-    opt_net = torch.optim.Adam(net.parameters(), lr=settings.lr_network)
-    opt_par = torch.optim.Adam([logp], lr=settings.lr_params)
+    pinn, n = problem.pinn, problem.n
+    opt_net = torch.optim.Adam(net.parameters(), lr=pinn.lr_network)
+    opt_par = torch.optim.Adam([logp], lr=pinn.lr_params)
     history: dict[str, list[Any]] = {k: [] for k in ("loss", *TERMS)}
     history["params"] = []
     recent: list[torch.Tensor] = []
     epoch, loss_val = 0, float("nan")
-    total_epochs = settings.max_epochs + settings.warmup_epochs
+    total_epochs = pinn.max_epochs + pinn.warmup_epochs
     for epoch in range(1, total_epochs + 1):
-        warm = epoch <= settings.warmup_epochs
+        warm = epoch <= pinn.warmup_epochs
         k1, k2, fy, c = _params_from_log(logp, ref)
         pairs, tg = problem.outputs(net, c, problem.tau, None)
         terms = problem.loss_terms(pairs, tg, k1, k2, fy, c)
@@ -377,7 +380,7 @@ def _train(problem: _PinnProblem, net: MemberNet, logp: torch.Tensor, ref: torch
         opt_par.zero_grad()
         loss.backward()
         opt_net.step()
-        if not warm and settings.param_rule == "adam":
+        if not warm and pinn.param_rule == "adam":
             logp.grad.mul_(free)
             opt_par.step()
             _project(logp, ref, problem.f_cap)
@@ -407,10 +410,10 @@ def _train(problem: _PinnProblem, net: MemberNet, logp: torch.Tensor, ref: torch
         if warm:
             continue
         recent.append(k_cur)
-        if len(recent) > settings.patience:
+        if len(recent) > pinn.patience:
             recent.pop(0)
             moved = float((torch.abs(recent[-1] / recent[0] - 1.0) * free).max())
-            if epoch - settings.warmup_epochs >= settings.min_epochs and moved < settings.tol:
+            if epoch - pinn.warmup_epochs >= pinn.min_epochs and moved < pinn.tol:
                 break
     return epoch, loss_val, history
 
@@ -432,7 +435,8 @@ def _reproduce(problem: _PinnProblem, net: MemberNet, logp: torch.Tensor, ref: t
     theta = rep["x"] @ angle_matrix(window.geometry.section_heights_m).T  # (M, T, N)
     yielded = np.array([[yielded0[i] and yield_test(
         theta[m, :, i], rep["f"][m, :, i], member_params[m, i, 0], member_params[m, i, 1],
-        member_params[m, i, 2], settings.yield_score)[0] for i in range(n)]
+        member_params[m, i, 2], settings.equation_error_settings.yield_score)[0]
+        for i in range(n)]
         for m in range(members)])
     # never yielded: fy only bounded below by the largest moment (k2, fy not identifiable)
     f_max = np.abs(rep["f"]).max(axis=1)

@@ -26,7 +26,7 @@ from pier_monitor.bags.writer import write_mcap_messages
 from pier_monitor.cli import EXIT_ERROR, EXIT_FAILED, EXIT_OK, main
 from pier_monitor.core.identify.damage import IdentificationResult, classify_ductility
 from pier_monitor.core.ingest import IngestSettings
-from pier_monitor.core.identify.methods import IdentifySettings
+from pier_monitor.core.identify.methods import IdentifySettings, PinnSettings
 from pier_monitor.pipeline import identify_bag
 from pier_monitor.report.compare import compare_results
 from pier_monitor.store import ResultsStore
@@ -147,8 +147,8 @@ def test_an_unrepaired_glitch_makes_the_result_unreliable_never_damaged(source, 
     bag = faulty_bag(source, tmp_path, at_sample("l3_wire_n", 2, 0.5, 0, 500.0))
     blind = IngestSettings(glitch_threshold=1e12, disagree_rel=1e12)
     outcome = identify_bag(bag, tmp_path / "out", ingest_settings=blind, figures=False,
-                           settings=IdentifySettings(max_epochs=EPOCHS, min_epochs=EPOCHS,
-                                                 device="cpu"))
+                           settings=IdentifySettings(device="cpu", pinn_settings=PinnSettings(
+                               max_epochs=EPOCHS, min_epochs=EPOCHS)))
     run2 = outcome.events[1]
     assert run2.status == "unreliable" and run2.result.overall_state == "unreliable"
     assert {s.state for s in run2.result.sections} == {"unreliable"}

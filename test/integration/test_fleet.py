@@ -25,14 +25,16 @@ from pier_monitor.events import TrainingStopped
 from pier_monitor.fleet import (FleetOptions, KillOnce, LocalPool, RayBackend, identify_offloaded,
                                 run_fleet)
 from pier_monitor.fleet.tasks import IngestTask, ingest_bag
-from pier_monitor.core.identify.methods import IdentifySettings
+from pier_monitor.core.identify.methods import IdentifySettings, PinnSettings
+from pier_monitor.core.ingest import IngestSettings
 from pier_monitor.pipeline import identify_bag
 from pier_monitor.report.fleet import STATE_RANK
 from pier_monitor.store import WINDOW_NPZ, ResultsStore
 
 pytestmark = pytest.mark.timeout(400)
 
-TINY = IdentifySettings(method="pinn", device="cpu", seed=0, max_epochs=12, min_epochs=1)
+TINY = IdentifySettings(method="pinn", device="cpu", seed=0,
+                        pinn_settings=PinnSettings(max_epochs=12, min_epochs=1))
 
 
 @pytest.fixture(scope="module")
@@ -206,3 +208,40 @@ def test_failed_events_and_unreadable_bags_are_recorded_and_the_fleet_goes_on(
     assert failed["pier_id"] == "pier_001" and "cuda" in failed["message"]
     assert doc["piers"][0]["state"] == "unknown" and math.isnan(
         IdentificationResult.load_json(out / failed["event_id"] / "failed.json").final_loss)
+
+
+def test_an_event_without_a_window_gets_failed_json_in_a_fleet_as_in_identify(tmp_path):
+    """The data end 1 s after pier_000's second run: with no partial window allowed, the
+    ingest cuts that event.  ``identify`` and the fleet read the bag the same way
+    (``read_bag_events``) and both write the cut event's ``failed.json``, the same record."""
+    (written,) = write_synthetic_fleet(tmp_path / "bags", 1, seed=0, fmt="mcap", record_s=12.0,
+                                       lead_s=8.0, gap_s=14.0, tail_s=1.0, sections=(2, 4))
+    assert len(written.truth.runs) == 2
+    no_partial = IngestSettings(partial_after_peak_s=1e6)
+    offline = identify_bag(written.bag.path, tmp_path / "identify", settings=TINY,
+                           ingest_settings=no_partial, figures=False)
+    assert [ev.status for ev in offline.events] == ["identified", "cut"]
+    cut_id = offline.events[1].result.event_id
+
+    out = tmp_path / "fleet"
+    options = FleetOptions(settings=TINY, ingest_settings=no_partial, figures=False)
+    backend = LocalPool(1)
+    try:
+        run = run_fleet([tmp_path / "bags"], out, backend, options)
+        assert (run.identified, run.failed, run.skipped) == (1, 1, 0)
+        assert not run.results[cut_id].success
+        assert "is cut: the data end at" in run.results[cut_id].message
+        assert_same_results({k: v for k, v in run.results.items() if k != cut_id},
+                            {offline.events[0].result.event_id: offline.events[0].result})
+        # the cut event's failure record: written, the same as identify's, no window stored
+        fleet_doc = json.loads((out / cut_id / "failed.json").read_text())
+        offline_doc = json.loads((tmp_path / "identify" / cut_id / "failed.json").read_text())
+        assert fleet_doc == offline_doc and fleet_doc["message"].startswith("ingest: event ")
+        assert not (out / cut_id / "window.npz").exists()
+        assert [f["event_id"] for f in json.loads((out / "fleet.json").read_text())
+                ["failed_events"]] == [cut_id]
+        # a rerun does nothing: both events are done (the bag's record lists the cut one too)
+        again = run_fleet([tmp_path / "bags"], out, backend, options)
+        assert (again.identified, again.failed, again.skipped) == (0, 0, 2)
+    finally:
+        backend.close()

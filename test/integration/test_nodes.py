@@ -46,7 +46,7 @@ def offline(short_bag: tuple[Path, int], tmp_path_factory: pytest.TempPathFactor
     from pier_monitor.pipeline import identify_bag
 
     return identify_bag(short_bag[0], tmp_path_factory.mktemp("offline"),
-                        settings=IdentifySettings(**TINY))
+                        settings=IdentifySettings.from_flat(**TINY))
 
 
 @pytest.fixture
@@ -477,7 +477,7 @@ def test_field_network_bag_live_equals_offline(listener, spawn_python, tmp_path)
     info = write_synthetic_bag(tmp_path / "field.mcap", fmt="mcap", seed=2, layout="accel",
                                gnss=True, scenario="just_yield", block_s=0.5)
     offline = identify_bag(info.bag.path, tmp_path / "offline",
-                           settings=IdentifySettings(**{**TINY, "method": "auto"}))
+                           settings=IdentifySettings.from_flat(**{**TINY, "method": "auto"}))
     coverage, = (ev.window.coverage for ev in offline.events)
     assert coverage.acceleration.all() and coverage.displacement.tolist() == [False] * 3 + [True]
     params = params_file(tmp_path / "params.yaml", tmp_path, method="auto")

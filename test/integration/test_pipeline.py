@@ -14,7 +14,7 @@ from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.errors import BagError, ReportError
 from pier_monitor.core.ingest.recording import Recording
 from pier_monitor.core.ingest.window import load_window
-from pier_monitor.core.identify.methods import IdentifySettings
+from pier_monitor.core.identify.methods import IdentifySettings, PinnSettings
 from pier_monitor.pipeline import identify_bag
 
 
@@ -27,7 +27,8 @@ def bag(tmp_path_factory):
 @pytest.fixture(scope="module")
 def identified(bag, tmp_path_factory):
     out = tmp_path_factory.mktemp("results")
-    settings = IdentifySettings(max_epochs=150, min_epochs=50)  # short: the start is already close
+    # short: the start is already close
+    settings = IdentifySettings(pinn_settings=PinnSettings(max_epochs=150, min_epochs=50))
     return identify_bag(bag.bag.path, out, settings=settings), out
 
 

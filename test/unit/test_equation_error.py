@@ -41,3 +41,40 @@ def test_window_file_round_trip_and_damage(tmp_path):
     cut.write_bytes(path.read_bytes()[:1000])
     with pytest.raises(InputDataError, match="cut.npz: not a readable window file"):
         load_window(cut)
+
+
+def test_the_method_reads_its_own_settings_and_each_method_owns_its_settings_class():
+    from pier_monitor.core.identify.field import FieldSettings
+    from pier_monitor.core.identify.methods import (EquationErrorMethod,
+                                                    EquationErrorSettings, FieldMethod,
+                                                    IdentifySettings, PinnMethod,
+                                                    PinnSettings, identify)
+
+    assert (PinnMethod.settings_type, FieldMethod.settings_type,
+            EquationErrorMethod.settings_type) == (PinnSettings, FieldSettings,
+                                                   EquationErrorSettings)
+    for method in (PinnMethod, FieldMethod, EquationErrorMethod):  # held as <name>_settings
+        assert type(getattr(IdentifySettings(), f"{method.name}_settings")) is \
+            method.settings_type
+    # flat keywords (the command line's, the node's, a result's) go to their owners
+    flat = IdentifySettings.from_flat(method="equation_error", members=3, max_epochs=60,
+                                      yield_score=40.0)
+    assert (flat.method, flat.members) == ("equation_error", 3)
+    assert flat.pinn_settings == PinnSettings(max_epochs=60)
+    assert flat.equation_error_settings == EquationErrorSettings(yield_score=40.0)
+    doc = flat.as_dict()  # written flat, as before the split
+    assert doc["max_epochs"] == 60 and doc["yield_score"] == 40.0 and doc["members"] == 3
+    assert not {"pinn_settings", "equation_error_settings"} & set(doc)
+    assert doc["field_settings"]["max_nfev"] == FieldSettings().max_nfev
+    with pytest.raises(TypeError):
+        IdentifySettings.from_flat(max_epoch=60)
+
+    # the yield test's threshold is the method's own setting: springs 1-3 yield by default,
+    # none when no score can pass it
+    window, _, _ = paper_case_window(moments_measured=True, seed=2)
+    runs = [identify(window, IdentifySettings(method="equation_error",
+                                              equation_error_settings=own)).result
+            for own in (EquationErrorSettings(), EquationErrorSettings(yield_score=1e300))]
+    assert [s.yielded for s in runs[0].sections] == [True] * 3 + [False] * 3
+    assert [s.yielded for s in runs[1].sections] == [False] * 6
+    assert runs[1].settings["yield_score"] == 1e300

@@ -9,7 +9,7 @@ import pytest
 
 from pier_monitor.core.synthetic.reference import paper_case_window
 from pier_monitor.events import TrainingStopped, identify_window
-from pier_monitor.core.identify.methods import IdentifySettings
+from pier_monitor.core.identify.methods import IdentifySettings, PinnSettings
 from pier_monitor.store import ResultsStore
 
 
@@ -21,7 +21,7 @@ def window():
 
 def test_a_failed_training_is_recorded_and_returned_not_raised(window, tmp_path) -> None:
     store = ResultsStore(tmp_path)
-    outcome = identify_window(window, IdentifySettings(max_epochs=0, device="cpu"), store)
+    outcome = identify_window(window, IdentifySettings(device="cpu", pinn_settings=PinnSettings(max_epochs=0)), store)
     result = outcome.result
     assert not result.success and outcome.paths is None
     assert result.message.startswith("identification failed: InputDataError: identification setting "

@@ -22,14 +22,15 @@ def identified():
     import torch
 
     from pier_monitor.core.synthetic.reference import paper_case_window
-    from pier_monitor.core.identify.methods import IdentifySettings, identify
+    from pier_monitor.core.identify.methods import IdentifySettings, PinnSettings, identify
 
     window, _, _ = paper_case_window(moments_measured=True, seed=0)
     window = replace(window, report={**window.report, "partial": {"reason": REASON}})
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
-        run = identify(window, IdentifySettings(max_epochs=5, min_epochs=2, device="cpu"))
+        run = identify(window, IdentifySettings(device="cpu", pinn_settings=PinnSettings(
+            max_epochs=5, min_epochs=2)))
     finally:
         torch.set_num_threads(threads)
     return window, run

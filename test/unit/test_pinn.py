@@ -13,7 +13,7 @@ from pier_monitor.core.model.link_model import angle_matrix
 from pier_monitor.core.synthetic.reference import paper_case_window
 from pier_monitor.core.model.solver import simulate
 from pier_monitor.core.ingest.window import MeasuredWindow
-from pier_monitor.core.identify.methods import IdentifySettings, identify
+from pier_monitor.core.identify.methods import IdentifySettings, PinnSettings, identify
 from pier_monitor.pinn.physics import PairTensors, Physics
 from pier_monitor.pinn.trainer import _paper_rule_step, _params_from_log, _PinnProblem, _project
 
@@ -76,8 +76,9 @@ def _small_window(moments: bool = False):
 @pytest.mark.parametrize("rule", ["adam", "paper"])
 def test_short_training_from_half_the_stiffness_recovers_an_elastic_model(rule):
     window, truth = _small_window()
-    settings = IdentifySettings(method="pinn", init="design", param_rule=rule, lr_params=2e-2, paper_lr2=2e-3,
-                            max_epochs=500, min_epochs=100, patience=50, tol=1e-4, seed=0)
+    settings = IdentifySettings(method="pinn", seed=0, pinn_settings=PinnSettings(
+        init="design", param_rule=rule, lr_params=2e-2, paper_lr2=2e-3, max_epochs=500,
+        min_epochs=100, patience=50, tol=1e-4))
     seen = []
     run = identify(window, settings, callback=lambda pr: seen.append(pr))
     np.testing.assert_allclose(run.result.params.k1, truth.k1, rtol=0.03)
@@ -90,7 +91,7 @@ def test_short_training_from_half_the_stiffness_recovers_an_elastic_model(rule):
 
 def test_update_rules_never_break_their_constraints():
     window, _ = _small_window(moments=True)
-    settings = IdentifySettings(method="pinn", init="design")
+    settings = IdentifySettings(method="pinn", pinn_settings=PinnSettings(init="design"))
     problem = _PinnProblem([window], settings, torch.device("cpu"), window.design)
     # Adam rule: projection after arbitrary steps, three members at once
     ref = torch.tensor(np.stack([window.design.k1, window.design.k2, window.design.fy,
@@ -122,7 +123,8 @@ def test_update_rules_never_break_their_constraints():
 
 def test_pinn_result_matches_truth_on_the_paper_case_with_moments():
     window, truth, _ = paper_case_window(moments_measured=True, seed=0)
-    run = identify(window, IdentifySettings(method="pinn", max_epochs=150, min_epochs=50, seed=0))
+    run = identify(window, IdentifySettings(method="pinn", seed=0, pinn_settings=PinnSettings(
+        max_epochs=150, min_epochs=50)))
     est = run.result.params
     np.testing.assert_allclose(est.k1, truth.k1, rtol=4e-3)
     np.testing.assert_allclose(est.c, truth.c, rtol=6e-3)
@@ -134,14 +136,14 @@ def test_diverging_training_is_reported_not_returned():
     window, _ = _small_window()
     # an absurd learning rate blows the network's outputs up after the first step
     with pytest.raises(IdentificationError, match=r"training diverged at epoch 2: loss is (inf|nan)"):
-        identify(window, IdentifySettings(method="pinn", init="design", lr_network=1e300, max_epochs=5,
-                                      min_epochs=1))
+        identify(window, IdentifySettings(method="pinn", pinn_settings=PinnSettings(
+            init="design", lr_network=1e300, max_epochs=5, min_epochs=1)))
 
 
 def test_bad_settings_and_missing_gpu_are_clear_errors():
     window, _ = _small_window()
     with pytest.raises(InputDataError, match="identification setting param_rule: invalid value 'sgd'"):
-        identify(window, IdentifySettings(param_rule="sgd"))
+        identify(window, IdentifySettings(pinn_settings=PinnSettings(param_rule="sgd")))
     if not torch.cuda.is_available():
         with pytest.raises(IdentificationError, match="device 'cuda' requested but no CUDA GPU"):
             identify(window, IdentifySettings(method="pinn", device="cuda"))
@@ -150,8 +152,9 @@ def test_bad_settings_and_missing_gpu_are_clear_errors():
 @pytest.mark.parametrize("residual", [True, False])
 def test_the_papers_relu_batchnorm_network_trains_too(residual):
     window, truth = _small_window(moments=True)
-    settings = IdentifySettings(method="pinn", arch="paper", hidden=16, layers=3, residual=residual,
-                            warmup_epochs=0 if residual else 30, max_epochs=40, min_epochs=10)
+    settings = IdentifySettings(method="pinn", pinn_settings=PinnSettings(
+        arch="paper", hidden=16, layers=3, residual=residual,
+        warmup_epochs=0 if residual else 30, max_epochs=40, min_epochs=10))
     run = identify(window, settings)
     assert run.result.epochs >= 10
     assert np.all(np.isfinite(run.reproduced.x))

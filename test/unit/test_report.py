@@ -58,7 +58,7 @@ def _result(pier_id: str, event_id: str, k1: list[float], df: list[float],
 def identified() -> tuple[Any, Any]:
     """A short real identification of the paper case (window with an absolute start time)."""
     from pier_monitor.core.synthetic.reference import paper_case_window
-    from pier_monitor.core.identify.methods import IdentifySettings, identify
+    from pier_monitor.core.identify.methods import IdentifySettings, PinnSettings, identify
 
     import torch
 
@@ -67,8 +67,9 @@ def identified() -> tuple[Any, Any]:
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # a small problem: one thread is faster, and robust to a busy CPU
     try:
-        run = identify(window, IdentifySettings(method="pinn", max_epochs=20, min_epochs=5,
-                                                   device="cpu"))
+        run = identify(window, IdentifySettings(method="pinn", device="cpu",
+                                                pinn_settings=PinnSettings(max_epochs=20,
+                                                                           min_epochs=5)))
     finally:
         torch.set_num_threads(threads)
     return window, run

@@ -5,8 +5,9 @@ settings, chooses the method (:func:`choose_method`), runs it, and assembles the
 one place: the ductility rule for springs that did not yield, the ensemble's summary
 (intervals, probabilities), the section states and the :class:`IdentificationResult`.
 
-A method is a class with a ``name`` and ``run(window, settings, callback) ->
-MethodOutput`` (:class:`Method`).  The peers today:
+A method is a class with a ``name``, the class of its own settings (``settings_type``,
+held by :class:`IdentifySettings`) and ``run(window, settings, callback) -> MethodOutput``
+(:class:`Method`).  The peers today:
 
 ``field`` (:class:`FieldMethod`)
     the output-error reconstruction of :func:`~pier_monitor.core.identify.field.fit_field`
@@ -30,7 +31,7 @@ import importlib
 import json
 import math
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Callable, Protocol
 
 import numpy as np
@@ -51,8 +52,9 @@ from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import angle_matrix
 
 __all__ = ["DEFAULT_TERM_WEIGHTS", "PAPER_TERM_WEIGHTS", "TERMS", "METHODS",
-           "EnsembleDraws", "EquationErrorMethod", "FieldMethod", "IdentificationRun",
-           "IdentifySettings", "Method", "MethodOutput", "PinnMethod", "Progress",
+           "EnsembleDraws", "EquationErrorMethod", "EquationErrorSettings", "FieldMethod",
+           "IdentificationRun", "IdentifySettings", "Method", "MethodOutput", "PinnMethod",
+           "PinnSettings", "Progress",
            "choose_method", "identify", "prepare_method"]
 
 #: The PINN's loss terms: the data misfit, then the physics terms.
@@ -75,44 +77,12 @@ METHODS = ("auto", "pinn", "field", "equation_error")
 
 
 @dataclass
-class IdentifySettings:
-    """Settings of one identification (defaults: the benchmarked configuration).
-
-    The first group concerns every method; ``field_settings`` the field reconstruction;
-    the rest the PINN (ignored by the other methods).
+class PinnSettings:
+    """Settings of the PINN's training, read by :class:`PinnMethod` alone (defaults: the
+    benchmarked configuration).
 
     Attributes
     ----------
-    method : {"auto", "pinn", "field", "equation_error"}
-        ``pinn``: the equation-error start and the PINN, for windows with a displacement
-        and an acceleration at every level (a shaking table with calibrated sensors: the
-        most accurate there); ``field``: the reconstruction from the accelerations
-        (:func:`~pier_monitor.core.identify.field.fit_field`, measured displacements used
-        where there are any), for windows that start at rest; it tolerates uncalibrated
-        gains (about 1 %) and misaligned sensors, which bias the equation-error start.
-        ``equation_error``: the PINN's start alone (every level fully measured).
-        ``auto``: ``equation_error`` with every level fully measured (``field`` where the
-        bilinear equation-error fit does not reproduce the measurements and the field
-        reconstruction does better), else ``field``.  The
-        PINN is not chosen by ``auto``: on the benchmark cases its training never improved
-        on its equation-error start beyond the seed scatter (see the README), at minutes
-        per event.
-    members : int
-        Members of the ensemble (1: one identification, no uncertainty).  PINN: member 0
-        trains on the measured window from the start; the others on copies perturbed as
-        the noise model allows (:mod:`pier_monitor.core.identify.ensemble`), each from the
-        start scattered by ``member_start_sd`` (a multi-start).  Field: draws of the
-        linearised posterior.
-    seed : int
-    device : {"auto", "cpu", "cuda"}
-        Where the PINN trains; the numpy methods never resolve it.
-    threads : int
-        CPU threads of a PINN training in this process (0: as the process has them; a
-        worker of a pool that shares a machine takes its share of the cores).
-    yield_score : float
-        Threshold of the yield test (see :func:`~pier_monitor.core.identify.equation_error.yield_test`).
-    field_settings : FieldSettings
-        The reconstruction of windows from field networks.
     pair_stride : int
         Training pairs every ``pair_stride`` samples (``t_s = pair_stride · Δt``; the paper
         used 0.1-0.5 s; 1 = every consecutive pair of the window).
@@ -131,7 +101,8 @@ class IdentifySettings:
         Relative weights of the physics terms (default :data:`DEFAULT_TERM_WEIGHTS`;
         :data:`PAPER_TERM_WEIGHTS` are the paper's).
     param_rule : {"adam", "paper"}
-        Parameter update: Adam on log-parameters, or the paper's Fig. 6 rule.
+        Parameter update: Adam on log-parameters, or the paper's Fig. 6 rule (one member
+        only).
     paper_lr2 : float
         The paper's ``lr2`` (step as a share of the initial value).
     init : {"equation_error", "design"}
@@ -165,22 +136,12 @@ class IdentifySettings:
     init: str = "equation_error"
     patience: int = 100
     tol: float = 1e-3
-    device: str = "auto"
-    seed: int = 0
-    yield_score: float = 50.0
-    field_settings: FieldSettings = field(default_factory=FieldSettings)
-    members: int = 1
-    method: str = "auto"
     member_start_sd: float = 0.02
-    threads: int = 0
 
-    def as_dict(self) -> dict[str, Any]:
-        """Plain JSON form (lists for tuples), as a result records it."""
-        return json.loads(json.dumps(asdict(self)))
-
-    def validate(self) -> None:
-        """Raise :class:`InputDataError` naming the first bad setting."""
-        checks = [
+    def validate(self, members: int) -> None:
+        """Raise :class:`InputDataError` naming the first bad setting (``members``: those of
+        the identification; the paper's rule trains one)."""
+        _check(self, [
             ("pair_stride", self.pair_stride >= 1),
             ("arch", self.arch in ("fourier", "paper")),
             ("hidden", self.hidden >= 1), ("layers", self.layers >= 1),
@@ -196,17 +157,129 @@ class IdentifySettings:
             ("paper_lr2", self.paper_lr2 > 0),
             ("init", self.init in ("equation_error", "design")),
             ("patience", self.patience >= 1), ("tol", self.tol > 0),
+            ("member_start_sd", self.member_start_sd >= 0),
+            ("param_rule", self.param_rule == "adam" or members == 1),
+        ])
+
+
+@dataclass
+class EquationErrorSettings:
+    """Settings of the equation-error fit, read by :class:`EquationErrorMethod` and by the
+    PINN (:class:`PinnMethod`), whose start that fit is.
+
+    Attributes
+    ----------
+    yield_score : float
+        Threshold of the yield test (see :func:`~pier_monitor.core.identify.equation_error.yield_test`).
+    """
+
+    yield_score: float = 50.0
+
+
+@dataclass
+class IdentifySettings:
+    """Settings of one identification, the front door's (defaults: the benchmarked
+    configuration).
+
+    The fields of every method, and each method's own settings, read by that method alone:
+    ``pinn_settings`` (:class:`PinnSettings`), ``field_settings``
+    (:class:`~pier_monitor.core.identify.field.FieldSettings`) and
+    ``equation_error_settings`` (:class:`EquationErrorSettings`, also the PINN's start).
+    :meth:`from_flat` builds them from flat keywords (``max_epochs=60``: the names of the
+    command line, the identifier node's parameters and a result's ``settings``), and
+    :meth:`as_dict` writes them flat.
+
+    Attributes
+    ----------
+    method : {"auto", "pinn", "field", "equation_error"}
+        ``pinn``: the equation-error start and the PINN, for windows with a displacement
+        and an acceleration at every level (a shaking table with calibrated sensors: the
+        most accurate there); ``field``: the reconstruction from the accelerations
+        (:func:`~pier_monitor.core.identify.field.fit_field`, measured displacements used
+        where there are any), for windows that start at rest; it tolerates uncalibrated
+        gains (about 1 %) and misaligned sensors, which bias the equation-error start.
+        ``equation_error``: the PINN's start alone (every level fully measured).
+        ``auto``: ``equation_error`` with every level fully measured (``field`` where the
+        bilinear equation-error fit does not reproduce the measurements and the field
+        reconstruction does better), else ``field``.  The
+        PINN is not chosen by ``auto``: on the benchmark cases its training never improved
+        on its equation-error start beyond the seed scatter (see the README), at minutes
+        per event.
+    members : int
+        Members of the ensemble (1: one identification, no uncertainty).  PINN: member 0
+        trains on the measured window from the start; the others on copies perturbed as
+        the noise model allows (:mod:`pier_monitor.core.identify.ensemble`), each from the
+        start scattered by ``member_start_sd`` (a multi-start).  Field: draws of the
+        linearised posterior.
+    seed : int
+    device : {"auto", "cpu", "cuda"}
+        Where the PINN trains; the numpy methods never resolve it.
+    threads : int
+        CPU threads of a PINN training in this process (0: as the process has them; a
+        worker of a pool that shares a machine takes its share of the cores).
+    pinn_settings : PinnSettings
+        The PINN's training.
+    field_settings : FieldSettings
+        The reconstruction of windows from field networks.
+    equation_error_settings : EquationErrorSettings
+        The equation-error fit (the PINN's start too).
+    """
+
+    device: str = "auto"
+    seed: int = 0
+    members: int = 1
+    method: str = "auto"
+    threads: int = 0
+    pinn_settings: PinnSettings = field(default_factory=PinnSettings)
+    field_settings: FieldSettings = field(default_factory=FieldSettings)
+    equation_error_settings: EquationErrorSettings = field(
+        default_factory=EquationErrorSettings)
+
+    @classmethod
+    def from_flat(cls, **flat: Any) -> IdentifySettings:
+        """The settings of flat keywords: the common fields by name, each method's by the
+        name of its field (``max_epochs`` of :class:`PinnSettings`, ``yield_score`` of
+        :class:`EquationErrorSettings`); what is not given keeps its default.
+
+        Raises
+        ------
+        TypeError
+            For a name that is no setting.
+        """
+        own = {}
+        for name, kind in (("pinn_settings", PinnSettings),
+                           ("equation_error_settings", EquationErrorSettings)):
+            given = flat.keys() & {f.name for f in fields(kind)}
+            if given:
+                own[name] = kind(**{k: flat.pop(k) for k in given})
+        return cls(**flat, **own)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON form (lists for tuples), as a result records it: flat, every method's
+        fields beside the common ones (``field_settings`` as a mapping of its own)."""
+        flat = {f.name: getattr(self, f.name) for f in fields(self)
+                if not f.name.endswith("_settings")}
+        flat.update(asdict(self.pinn_settings), **asdict(self.equation_error_settings),
+                    field_settings=asdict(self.field_settings))
+        return json.loads(json.dumps(flat))
+
+    def validate(self) -> None:
+        """Raise :class:`InputDataError` naming the first bad setting."""
+        self.pinn_settings.validate(self.members)
+        _check(self, [
             ("device", self.device in ("auto", "cpu", "cuda")),
             ("members", self.members >= 1),
             ("method", self.method in METHODS),
-            ("member_start_sd", self.member_start_sd >= 0),
             ("threads", self.threads >= 0),
-            ("param_rule", self.param_rule == "adam" or self.members == 1),
-        ]
-        for name, ok in checks:
-            if not ok:
-                raise InputDataError(f"identification setting {name}: invalid value "
-                                     f"{getattr(self, name)!r}")
+        ])
+
+
+def _check(settings: Any, checks: list[tuple[str, bool]]) -> None:
+    """Raise :class:`InputDataError` naming the first setting whose check failed."""
+    for name, ok in checks:
+        if not ok:
+            raise InputDataError(f"identification setting {name}: invalid value "
+                                 f"{getattr(settings, name)!r}")
 
 
 @dataclass(frozen=True)
@@ -310,9 +383,15 @@ class MethodOutput:
 
 
 class Method(Protocol):
-    """An identification method: a peer behind :func:`identify`."""
+    """An identification method: a peer behind :func:`identify`.
+
+    ``settings_type`` is the class of its own settings, which :class:`IdentifySettings`
+    holds as ``<name>_settings``; the method reads those and the common fields (the PINN
+    also those of the equation-error fit, its start).
+    """
 
     name: str
+    settings_type: type
 
     def run(self, window: MeasuredWindow, settings: IdentifySettings,
             callback: Callable[[Progress], None] | None) -> MethodOutput:
@@ -324,6 +403,7 @@ class FieldMethod:
     """The field reconstruction (:func:`~pier_monitor.core.identify.field.fit_field`)."""
 
     name = "field"
+    settings_type = FieldSettings
 
     def run(self, window: MeasuredWindow, settings: IdentifySettings,
             callback: Callable[[Progress], None] | None = None) -> MethodOutput:
@@ -360,6 +440,7 @@ class PinnMethod:
     """
 
     name = "pinn"
+    settings_type = PinnSettings
     entry_point = "pier_monitor.pinn.trainer:train_pinn"
 
     def load(self) -> Callable[..., MethodOutput]:
@@ -375,7 +456,8 @@ class PinnMethod:
 
     def run(self, window: MeasuredWindow, settings: IdentifySettings,
             callback: Callable[[Progress], None] | None = None) -> MethodOutput:
-        """Train the network and the parameters together."""
+        """Train the network and the parameters together (``settings.pinn_settings``, from
+        the equation-error start of ``settings.equation_error_settings``)."""
         return self.load()(window, settings, callback)
 
 
@@ -391,17 +473,19 @@ class EquationErrorMethod:
     """
 
     name = "equation_error"
+    settings_type = EquationErrorSettings
 
     def run(self, window: MeasuredWindow, settings: IdentifySettings,
             callback: Callable[[Progress], None] | None = None) -> MethodOutput:
         """Fit every member's springs to its window."""
         _require_full(window, self.name)
+        own = settings.equation_error_settings
         b = angle_matrix(window.geometry.section_heights_m)
         fits, thetas, moments = [], [], []
         fit0 = None
         for w in member_windows(window, settings.members, seed=settings.seed):
             fit = fit_equation_error(w.geometry, w.x, w.v, w.a, w.ag, w.design,
-                                     moments=w.moments, yield_score=settings.yield_score)
+                                     moments=w.moments, yield_score=own.yield_score)
             fit0 = fit0 or fit
             theta = w.x @ b.T
             g = (w.moments if w.moments is not None
