@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -58,7 +59,7 @@ __all__ = ["FiberColumn", "FiberYield", "FiberTransient", "have_openseespy", "im
            "gross_ei", "fiber_principal_response"]
 
 G = 9.80665
-_CACHE_VERSION = 1
+_CACHE_VERSION = 2
 
 
 def import_ops():
@@ -70,7 +71,7 @@ def import_ops():
         When openseespy (or the system BLAS/LAPACK it loads) is missing.
     """
     try:
-        import openseespy.opensees as ops  # noqa: PLC0415 - optional extra
+        import openseespy.opensees as ops  # optional heavy dependency (extra 'fiber')
     except Exception as err:  # ImportError, or an OSError from a missing libblas/liblapack
         raise PierMonitorError(
             "the fiber-section column needs openseespy: pip install .[fiber]; needs libblas3 "
@@ -408,12 +409,12 @@ def fiber_yield(column: FiberColumn, geometry: PierGeometry) -> FiberYield:
 
 @dataclass(frozen=True, eq=False)
 class FiberTransient:
-    """The column's response over a whole recording (rate of the input motion).
+    """The column's response over a whole recording, at every integration step.
 
     Attributes
     ----------
     t : ndarray (T,)
-        Time from the start, s.
+        Time from the start, s, at the integration step ``column.dt_s``.
     x, v, a : ndarray (T, N)
         Level displacements, velocities and accelerations relative to the base (m, m/s,
         m/s²); the absolute acceleration is ``a + ag``.
@@ -453,7 +454,10 @@ def _transient_analysis(ops, dt: float) -> None:
     ops.system("BandGeneral")
     ops.test("NormDispIncr", 1e-8, 30)
     ops.algorithm("Newton")
-    ops.integrator("Newmark", 0.5, 0.25)
+    # HHT (α = 0.9) damps the spurious high-frequency response of the nearly massless
+    # rotations and of the light lower levels, which Newmark's average acceleration keeps
+    # at the step's Nyquist frequency (it then aliases into the sampled accelerations)
+    ops.integrator("HHT", 0.9)
     ops.analysis("Transient")
 
 
@@ -534,8 +538,6 @@ def fiber_transient(column: FiberColumn, geometry: PierGeometry, ag: np.ndarray,
         with np.load(path) as z:
             return FiberTransient(**{k: z[k] for k in z.files if k != "wall_s"},
                                   wall_s=float(z["wall_s"]))
-    import time  # noqa: PLC0415
-
     started = time.perf_counter()
     ops = import_ops()
     n = geometry.n_levels
@@ -550,32 +552,39 @@ def fiber_transient(column: FiberColumn, geometry: PierGeometry, ag: np.ndarray,
     ops.pattern("UniformExcitation", 10, 1, "-accel", 10)
     b = angle_matrix(geometry.section_heights_m)
     n_out = ag.size
-    out = {k: np.zeros((n_out, n)) for k in ("x", "v", "a", "moment", "bar_strain")}
+    n_fine = (n_out - 1) * sub + 1  # every integration step is kept (no aliasing here)
+    out = {k: np.zeros((n_fine, n)) for k in ("x", "v", "a", "moment", "bar_strain")}
     probe_idx = {int(round(p / dt_in)): j for j, p in enumerate(probe_s)}
     probe_k = np.full((len(probe_s), n), np.nan)
     probe_t1 = np.full(len(probe_s), np.nan)
     _transient_analysis(ops, column.dt_s)
     dt = column.dt_s
-    for i in range(n_out):
-        if i in probe_idx:
-            j = probe_idx[i]
+
+    def record(j: int) -> None:
+        out["x"][j] = _levels_x(ops, n)
+        out["v"][j] = [ops.nodeVel(k + 2, 1) for k in range(n)]
+        out["a"][j] = [ops.nodeAccel(k + 2, 1) for k in range(n)]
+        mom, bar, _ = _section_state(ops, n, column)
+        out["moment"][j] = mom
+        out["bar_strain"][j] = bar
+
+    record(0)
+    for i in range(1, n_out):
+        if i - 1 in probe_idx:
+            j = probe_idx[i - 1]
             now = ops.getTime()
             probe_t1[j] = _first_period(ops)
             probe_k[j] = _probe(ops, column, geometry, probe_moment_Nm, 100 + j)
             ops.setTime(now)
             _transient_analysis(ops, dt)
-        if i > 0:
-            for _ in range(sub):
-                if ops.analyze(1, dt) != 0:
-                    _hard_step(ops, dt)
-        out["x"][i] = _levels_x(ops, n)
-        out["v"][i] = [ops.nodeVel(k + 2, 1) for k in range(n)]
-        out["a"][i] = [ops.nodeAccel(k + 2, 1) for k in range(n)]
-        mom, bar, _ = _section_state(ops, n, column)
-        out["moment"][i] = mom
-        out["bar_strain"][i] = bar
+        for s in range(sub):
+            if ops.analyze(1, dt) != 0:
+                _hard_step(ops, dt)
+            record((i - 1) * sub + s + 1)
     ops.wipe()
-    res = FiberTransient(t=np.arange(n_out) * dt_in, ag=ag.copy(), theta=out["x"] @ b.T,
+    t_fine = np.arange(n_fine) * dt
+    res = FiberTransient(t=t_fine, ag=np.interp(t_fine, np.arange(n_out) * dt_in, ag),
+                         theta=out["x"] @ b.T,
                          probe_t=np.asarray(probe_s, dtype=float), probe_k=probe_k,
                          probe_period_s=probe_t1, wall_s=time.perf_counter() - started,
                          **{k: out[k] for k in ("x", "v", "a", "moment", "bar_strain")})
@@ -655,10 +664,11 @@ def fiber_principal_response(column: FiberColumn, geometry: PierGeometry, probe_
     """A ``principal_response`` for
     :func:`~pier_monitor.core.synthetic.shaking_table.generate_recording`: called with the
     principal table acceleration of the whole recording at the motion rate ``1/dt``, it runs
-    the column (:func:`fiber_transient`, at the pier's samples: every ``dt_in / dt``-th
-    value, where ``dt_in`` is the largest multiple of ``dt`` that ``column.dt_s`` divides,
-    e.g. 5 ms for 1 ms) and returns ``(x, v, a)`` relative to the base, interpolated
-    linearly back to ``dt``.  The transient is put in ``store["transient"]`` when a dict is
+    the column (:func:`fiber_transient`, on every ``dt_in / dt``-th value, ``dt_in`` the
+    smallest multiple of ``dt`` that ``column.dt_s`` divides, e.g. 5 ms for 1 ms) and returns
+    ``(x, v, a)`` relative to the base at every integration step, interpolated linearly to
+    ``dt`` (the sensors' anti-aliasing filter then acts on it as on the product's own
+    simulations).  The transient is put in ``store["transient"]`` when a dict is
     given."""
 
     def response(acc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
