@@ -61,3 +61,38 @@ def test_missing_openseespy_is_the_projects_error(monkeypatch):
     with pytest.raises(PierMonitorError, match=r"pip install \.\[fiber\].*libblas3 liblapack3"):
         fiber.import_ops()
     assert not fiber.have_openseespy()
+
+
+def test_an_external_principal_response_is_recorded_like_the_link_model():
+    """generate_recording's principal_response hook: the link model's own response, given
+    through the hook over the whole recording, gives the same recording and spring angles."""
+    from pier_monitor.core.model.config import load_config
+    from pier_monitor.core.model.solver import simulate
+    from pier_monitor.core.resources import find_config_file
+    from pier_monitor.core.synthetic.shaking_table import RunSpec, Scenario, generate_recording
+
+    config = load_config(find_config_file("edefense_like.yaml"))
+    run = RunSpec("r", pga_mps2=1.0, duration_s=8.0, strong_start_s=2.0, strong_duration_s=3.0,
+                  motion_seed=5)
+    scenario = Scenario(runs=(run,), lead_s=4.0, tail_s=4.0)
+    params = run.parameters(config.design)
+    calls = []
+
+    def link_model(ag, dt):
+        calls.append((ag.size, dt))
+        resp = simulate(config.geometry, params, ag, dt, dt=0.001, output_dt=dt)
+        return resp.x, resp.v, resp.a
+
+    own = generate_recording(config, scenario, seed=3)
+    ext = generate_recording(config, scenario, seed=3, principal_response=link_model)
+    assert len(calls) == 1 and calls[0][1] == pytest.approx(1.0 / config.sample_rate_hz)
+    assert ext.truth.hysteresis == "external"
+    assert np.all(np.isnan(ext.truth.runs[0].ductility_factors))
+    np.testing.assert_allclose(ext.truth.runs[0].response.theta, own.truth.runs[0].response.theta,
+                               rtol=0, atol=1e-9)
+    for sid, rec in own.recording.sensors.items():
+        np.testing.assert_allclose(ext.recording.sensors[sid].data, rec.data, rtol=0,
+                                   atol=1e-6 * max(1.0, float(np.max(np.abs(rec.data)))))
+    with pytest.raises(PierMonitorError, match="hysteresis"):
+        generate_recording(config, scenario, seed=3, hysteresis="takeda",
+                           principal_response=link_model)
