@@ -21,6 +21,9 @@ setup(
     # Runtime dependencies (ROS 2 wheels, torch, numpy, ...) are pinned in requirements.txt
     # and declared for rosdep in package.xml; setuptools only needs itself here.
     install_requires=["setuptools"],
+    # the fiber-section column of the ``fiber`` benchmark (OpenSees; 3.7.1.2 is the last for
+    # Python 3.11; needs the system BLAS/LAPACK: Debian libblas3 liblapack3)
+    extras_require={"fiber": ["openseespy==3.7.1.2"]},
     zip_safe=True,
     maintainer="pier_monitor maintainers",
     maintainer_email="pier-monitor@example.com",

@@ -20,6 +20,7 @@ import numpy as np
 from pier_monitor.bags import read_bag
 from pier_monitor.bench_heldout import heldout_suite, true_ductility
 from pier_monitor.bench_live import bench_latency
+from pier_monitor.bench_fiber import bench_fiber
 from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
@@ -770,6 +771,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "rc": _rc_suite,
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
+    "fiber": lambda: bench_fiber(),
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.

@@ -180,7 +180,8 @@ def field_recording(config: PierConfig, layout: str, scenario: Scenario, *, gnss
                     seed: int = 0,
                     imperfections: SensorImperfections | None = SensorImperfections(),
                     intermediate_levels: tuple[int, ...] | None = None,
-                    hysteresis: str = "bilinear") -> SyntheticRecording:
+                    hysteresis: str = "bilinear",
+                    principal_response=None) -> SyntheticRecording:
     """Record a scenario with a field layout of a pier's sensor map, as a field network would.
 
     The layout's configuration (:func:`~pier_monitor.core.synthetic.layouts.layout_config`)
@@ -207,10 +208,14 @@ def field_recording(config: PierConfig, layout: str, scenario: Scenario, *, gnss
     hysteresis : {"bilinear", "takeda", "bwbn"}
         Springs of the simulated pier (:func:`~pier_monitor.core.synthetic.shaking_table.
         generate_recording`).
+    principal_response : callable, optional
+        A structural model of its own for the principal response (e.g. the fiber column of
+        :mod:`~pier_monitor.core.synthetic.fiber`), passed to ``generate_recording``.
     """
     field = layout_config(config, layout, gnss, intermediate_levels)
     return generate_recording(field, scenario, seed=seed, imperfections=imperfections,
-                              anti_alias=True, hysteresis=hysteresis)
+                              anti_alias=True, hysteresis=hysteresis,
+                              principal_response=principal_response)
 
 
 def field_case_recording(pier: str, layout: str, gnss: bool = False, shaking: str = "strong",

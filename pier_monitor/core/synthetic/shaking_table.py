@@ -57,7 +57,7 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.fileio import to_strict_json
 from pier_monitor.core.identify.damage import ductility_factors
 from pier_monitor.core.model.ground_motion import el_centro_1940, synthetic_near_fault
-from pier_monitor.core.model.link_model import natural_periods
+from pier_monitor.core.model.link_model import angle_matrix, natural_periods
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord, sample_times_ns
 from pier_monitor.core.model.solver import Response, simulate
 from pier_monitor.core.synthetic.rc import (HYSTERESIS_FAMILIES, RCSectionTruth, RCSprings,
@@ -89,6 +89,8 @@ DEFAULT_START_NS = 1_710_205_200 * NS_PER_S
 DEFAULT_PRINCIPAL_DIRECTION_DEG = 196.0
 
 _INTERNAL_DT_S = 0.001  # SPEC §3: Newmark internal step
+#: ``principal_response(ag, dt) -> (x, v, a)`` of :func:`generate_recording`.
+PrincipalResponse = Callable[[np.ndarray, float], tuple[np.ndarray, np.ndarray, np.ndarray]]
 #: Table PGAs (m/s²) of the two runs of :func:`edefense_scenario` with RC springs, by family.
 RC_EDEFENSE_PGA_MPS2 = {"takeda": (3.7, 5.5), "bwbn": (5.5, 6.0)}
 _RESPONSE_KEYS = ("t", "ag", "x", "v", "a", "theta", "moment")
@@ -639,7 +641,9 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
                        principal_direction_deg: float | None = None,
                        imperfections: SensorImperfections | None = None,
                        anti_alias: bool = False, hysteresis: str = "bilinear",
-                       rayleigh_zeta: float = 0.03) -> SyntheticRecording:
+                       rayleigh_zeta: float = 0.03,
+                       principal_response: PrincipalResponse | None = None
+                       ) -> SyntheticRecording:
     """Simulate a shaking-table test of the pier and record it with its sensor map.
 
     Parameters
@@ -678,6 +682,19 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
     rayleigh_zeta : float
         Damping ratio of the Rayleigh matrix of RC springs (modes 1 and 2 of the uncracked
         pier).
+    principal_response : callable, optional
+        A structural model of its own for the principal response, e.g. the fiber-section
+        column of :mod:`~pier_monitor.core.synthetic.fiber`: called once as
+        ``principal_response(ag, dt)`` with the principal table acceleration of the whole
+        recording (ambient motion, runs and gaps, shape (T,), m/s²) at the motion's step
+        ``dt`` (1 ms with ``anti_alias``, else the pier's period), it returns the levels'
+        displacements, velocities and accelerations relative to the foundation, shape (T, N)
+        each.  The runs' parameter factors are then unused (the model carries its own
+        damage from run to run), the runs' truths hold the configuration's design values as
+        ``params``, ``ductility_factors`` of NaN (the model's owner has the truth) and the
+        spring angles ``B x`` with zero moments; ``truth.hysteresis`` is ``"external"``.
+        The transverse response stays the elastic link model.  Requires ``hysteresis``
+        ``bilinear``.
 
     Returns
     -------
@@ -694,6 +711,9 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         raise InputDataError(f"hysteresis: expected one of {list(HYSTERESIS_FAMILIES)}, got "
                              f"{hysteresis!r}")
     rc = hysteresis != "bilinear"
+    if principal_response is not None and rc:
+        raise InputDataError("principal_response replaces the springs: use it with "
+                             "hysteresis 'bilinear'")
     if scenario is None:
         scenario = edefense_scenario(hysteresis=hysteresis)
     if not config.sensors:
@@ -752,12 +772,29 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
     v_end, xt_end, vt_end = np.zeros(n), np.zeros(n), np.zeros(n)
     run_truths: list[RunTruth] = []
     times = sample_times_ns(scenario.start_ns, total, rate)
+    external = None
+    if principal_response is not None:  # one analysis over the whole recording
+        external = tuple(np.asarray(arr, dtype=float) for arr in
+                         principal_response(table_m[:, 0].copy(), dt_m))
+        if any(arr.shape != (total * up, n) or not np.all(np.isfinite(arr))
+               for arr in external):
+            raise InputDataError(f"principal_response: expected finite (x, v, a) of shape "
+                                 f"{(total * up, n)} each")
     end_ns = int(times[-1]) + int(round(NS_PER_S / rate))
     for i, (run, (seeds, comps), s0) in enumerate(zip(scenario.runs, records, starts)):
         b0, b1 = bounds[i] * up, bounds[i + 1] * up
         geometry, params = piers[i]
         rc_run = None
-        if springs is None:
+        if external is not None:  # the segment's displacements relative to where it started
+            x_ext, v_ext, a_ext = (arr[b0:b1] for arr in external)
+            offset = x_ext[0].copy()
+            x_seg = x_ext - offset
+            resp = Response(t=np.arange(b1 - b0) * dt_m, ag=table_m[b0:b1, 0].copy(),
+                            x=x_seg, v=v_ext.copy(), a=a_ext.copy(),
+                            theta=(offset + x_seg) @ angle_matrix(
+                                geometry.section_heights_m).T,
+                            moment=np.zeros_like(x_seg))
+        elif springs is None:
             resp = simulate(geometry, params, table_m[b0:b1, 0], dt_m, dt=_INTERNAL_DT_S,
                             output_dt=dt_m, v0=v_end)
         else:  # starts where the last segment ended: displaced, with its cracks and yielding
@@ -800,8 +837,9 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
             ag_transverse=table[s0:s0 + n_rec, 1].copy(),
             ag_vertical=table[s0:s0 + n_rec, 2].copy(),
             initial_offset_m=offset.copy(),
-            ductility_factors=(ductility_factors(response.theta, params) if truth_rc is None
-                               else truth_rc.ductility_factor),
+            ductility_factors=(np.full(n, np.nan) if external is not None
+                               else ductility_factors(response.theta, params)
+                               if truth_rc is None else truth_rc.ductility_factor),
             periods_s=(natural_periods(geometry, params) if truth_rc is None
                        else stiffness_periods(geometry, truth_rc.k_small_before)),
             pga_mps2=float(np.max(np.abs(response.ag))),
@@ -840,7 +878,7 @@ def generate_recording(config: PierConfig, scenario: Scenario | None = None, *, 
         start_ns=int(times[0]), end_ns=end_ns, runs=tuple(run_truths),
         noise_rms={s.sensor_id: s.noise_rms for s in config.sensors}, scenario=scenario,
         imperfections=imperfections, sensor_errors=errors, anti_alias=anti_alias,
-        hysteresis=hysteresis)
+        hysteresis="external" if external is not None else hysteresis)
     # the operators record added deck mass as a configuration update before the run
     updates = tuple((int(times[bounds[i]]), dataclasses.replace(config, geometry=piers[i][0]))
                     for i in range(1, len(piers)) if piers[i][0] != config.geometry)
