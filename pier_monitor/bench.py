@@ -856,6 +856,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "missed_damage": bench_missed_damage,
     "selfcheck": _selfcheck_suite,
     "rc": _rc_suite,
+    "rc_sequence": lambda: bench_rc_sequence(),
     "latency": lambda: bench_latency(),
 }
 
