@@ -50,7 +50,8 @@ from pier_monitor.core.model.springs import (
     TAKEDA_ALPHA, TakedaParameters, _reload, _takeda_skel, bilinear_skeleton, idealised_yield,
     takeda_skeleton, takeda_unloading_stiffness)
 
-__all__ = ["MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "YIELD_SHARE", "damped_takeda", "fit_field_families"]
+__all__ = ["MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "YIELD_SHARE", "damped_takeda",
+           "fit_field_families"]
 
 #: The Takeda reconstruction decides only when its chi-square is at most this many times its
 #: independent samples (a reconstruction within about 4.5 times the misfit floor); where it
@@ -267,8 +268,9 @@ def _starts(n: int, k_scale: np.ndarray, c_log: np.ndarray) -> list[np.ndarray]:
 
 
 def _equation_error_start(pb: _FieldProblem, tf: _TakedaField, fit: FieldFit,
-                          eps: np.ndarray, g: np.ndarray, c_log: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """Per-spring Takeda starts, and whether each spring yielded in that fit from the equation-error Takeda fit
+                          eps: np.ndarray, g: np.ndarray, c_log: np.ndarray
+                          ) -> np.ndarray | None:
+    """Per-spring Takeda starts (N, 8) from the equation-error Takeda fit
     (:func:`~pier_monitor.core.identify.families.fit_section_families`) of the angles the
     accelerations give where they are measured (integrated, detrended, gains removed; the
     bilinear reconstruction's at the other levels)."""
@@ -429,7 +431,8 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         # the design's (fy/k1) is a crack the fit took for a yield point
         yielded[i] = bool(gain > max(settings.yield_chi2, 2.0 * log_neff)
                           and gain > YIELD_SHARE * chi2_t
-                          and tf.params(q, i).theta_y >= MIN_YIELD_ROTATION_SHARE * theta_y_design[i])
+                          and tf.params(q, i).theta_y
+                          >= MIN_YIELD_ROTATION_SHARE * theta_y_design[i])
 
     # BIC of the two reconstructions
     p_bil = int(np.sum(np.where(fit.yielded, 5, 2)))
