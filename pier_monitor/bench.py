@@ -752,6 +752,91 @@ def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
+                      layouts: tuple[str, ...] = ("full", "accel"),
+                      hysteresis: str = "takeda") -> list[dict[str, Any]]:
+    """Two shakings of one RC pier, as the product sees them: the k1 change it reports
+    against the stiffness the test-bed's springs really lost.
+
+    One recording of the RC test-bed (:mod:`~pier_monitor.core.synthetic.rc`): the pier's
+    ``just_yield`` shaking, 30 s of quiet, then its ``strong`` one, the springs carrying
+    their cracks, yielding and offsets from the first into the second.  Each window is
+    ingested and identified in order by :func:`~pier_monitor.events.identify_window` into one
+    store (default settings, design values off the truth by :data:`DESIGN_FACTORS`), so the
+    second event's ``k1_change_pct`` is against the store's baseline (the first, when it is
+    reliable).  Per layout, one entry per event and a last one comparing, per section: the
+    reported k1 change (the store's, and ``k1`` of event 2 over event 1 directly), the
+    family's small-amplitude stiffness after each event (``k_small_after``) and its change,
+    and the truth's small-amplitude (unloading) stiffness before and after each event
+    (:func:`~pier_monitor.core.synthetic.rc.rc_truth`).
+    """
+    spec = field_pier(pier)
+    config = load_config(find_config_file(spec.config_file))
+    runs = tuple(dataclasses.replace(spec.runs[s], pga_mps2=spec.rc_pga_mps2[hysteresis][s])
+                 for s in ("just_yield", "strong"))
+    out: list[dict[str, Any]] = []
+    for layout in layouts:
+        syn = field_recording(config, layout, Scenario(runs=runs), seed=seed,
+                              hysteresis=hysteresis)
+        windows, report = ingest_recording(syn.recording)
+        if len(windows) != len(runs):
+            reasons = "; ".join(o.failure or "" for o in report.outcomes)
+            raise InputDataError(f"rc sequence {pier}/{layout}: expected {len(runs)} windows, "
+                                 f"got {len(windows)} ({reasons})")
+        n = windows[0].n_levels
+        first = syn.truth.runs[0].params
+        design = SpringParameters(*(getattr(first, k) * np.asarray(DESIGN_FACTORS[k][:n])
+                                    for k in ("k1", "k2", "fy", "c")))
+        events = []
+        with tempfile.TemporaryDirectory(prefix="pier_monitor_rcseq_") as tmp:
+            store = ResultsStore(Path(tmp))
+            for i, (window, run) in enumerate(zip(windows, syn.truth.runs)):
+                window = dataclasses.replace(
+                    window, design=design,
+                    event_id=f"rcseq_{hysteresis}_{pier}_{layout}_{seed}_{i + 1}_{run.name}")
+                started = time.perf_counter()
+                result = identify_window(window, IdentifySettings(seed=seed), store,
+                                         figures=False).result
+                wall = time.perf_counter() - started
+                truth = run.rc
+                events.append({
+                    "case": f"rcseq_{hysteresis}_{pier}_{layout}", "seed": seed,
+                    "event": i + 1, "shaking": run.name, "layout": layout,
+                    "family": (result.family or {}).get("family"),
+                    "overall_state": result.overall_state,
+                    "states": [s.state for s in result.sections],
+                    "df": [s.ductility_factor for s in result.sections],
+                    "true_df": [float(v) for v in truth.ductility_factor],
+                    "k1": [s.k1 for s in result.sections],
+                    "k1_change_pct": [s.k1_change_pct for s in result.sections],
+                    "k_small_after": [s.k_small_after for s in result.sections],
+                    "true_k_small_before": [float(v) for v in truth.k_small_before],
+                    "true_k_small_after": [float(v) for v in truth.k_small_after],
+                    "wall_s": round(wall, 2), "device": "cpu"})
+        ev1, ev2 = events
+
+        def change(a: list[float | None], b: list[float | None]) -> list[float | None]:
+            return [None if x is None or y is None else 100.0 * (y / x - 1.0)
+                    for x, y in zip(a, b)]
+
+        out.extend(events)
+        out.append({
+            "case": f"rcseq_{hysteresis}_{pier}_{layout}_summary", "seed": seed,
+            "layout": layout,
+            "reported_k1_change_pct": ev2["k1_change_pct"],
+            "k1_change_pct_event2_vs_event1": change(ev1["k1"], ev2["k1"]),
+            "family_k_small_change_pct_event2_vs_event1": change(ev1["k_small_after"],
+                                                                 ev2["k_small_after"]),
+            "true_k_small_change_pct_event2": change(ev2["true_k_small_before"],
+                                                     ev2["true_k_small_after"]),
+            "true_k_small_change_pct_event1": change(ev1["true_k_small_before"],
+                                                     ev1["true_k_small_after"]),
+            "true_k_small_change_pct_both": change(ev1["true_k_small_before"],
+                                                   ev2["true_k_small_after"]),
+            "wall_s": ev1["wall_s"] + ev2["wall_s"], "device": "cpu"})
+    return out
+
+
 def _rc_suite() -> list[dict[str, Any]]:
     """The ``rc`` suite: :func:`bench_rc` and its summary (last entry)."""
     runs = bench_rc()
@@ -769,6 +854,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "missed_damage": bench_missed_damage,
     "selfcheck": _selfcheck_suite,
     "rc": _rc_suite,
+    "rc_sequence": lambda: bench_rc_sequence(),
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
     "fiber": lambda: bench_fiber(),

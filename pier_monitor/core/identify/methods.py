@@ -44,6 +44,7 @@ from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
 from pier_monitor.core.identify.field import FieldSettings, fit_field
+from pier_monitor.core.identify.field_families import fit_field_families
 from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
 from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
                                                     summarize_members)
@@ -400,7 +401,14 @@ class Method(Protocol):
 
 
 class FieldMethod:
-    """The field reconstruction (:func:`~pier_monitor.core.identify.field.fit_field`)."""
+    """The field reconstruction (:func:`~pier_monitor.core.identify.field.fit_field`).
+
+    On a window that is not fully measured the spring family is then chosen by evidence
+    (:func:`~pier_monitor.core.identify.field_families.fit_field_families`: the same
+    reconstruction with modified-Takeda springs, BIC against the bilinear's); where the
+    Takeda is chosen, the reproduced angles and moments, the DF and the yield decision are
+    its own (as on the equation-error route), the bilinear parameters stay beside them.
+    """
 
     name = "field"
     settings_type = FieldSettings
@@ -419,17 +427,26 @@ class FieldMethod:
             member_responses = MemberResponses(theta=ens.theta, moment=ens.moment,
                                                x=ens.theta @ b_inv.T)
         stage_names = list(fit.stages)
+        family = None
+        x, v, theta, moment = fit.x, fit.v, fit.theta, fit.moment
+        if not window.coverage.is_full:  # the family by evidence (full windows: EE route)
+            chosen = fit_field_families(window, fit, settings.field_settings)
+            if chosen is not None:
+                family, theta, moment = chosen
+                if family.family != "bilinear":
+                    x = theta @ np.linalg.inv(angle_matrix(window.geometry.section_heights_m)).T
+                    v = np.gradient(x, window.dt, axis=0)
         a = np.where(window.coverage.acceleration, window.a,
-                     np.gradient(fit.v, window.dt, axis=0))
-        reproduced = Reproduced(t=window.t.copy(), a=a, v=fit.v, x=fit.x, theta=fit.theta,
-                                moment=fit.moment)
+                     np.gradient(v, window.dt, axis=0))
+        reproduced = Reproduced(t=window.t.copy(), a=a, v=v, x=x, theta=theta, moment=moment)
         message = (f"{window.coverage.layout} layout: springs reconstructed from the physics "
                    f"({', '.join(stage_names)})"
-                   + (f", {settings.members} members" if fit.members is not None else ""))
+                   + (f", {settings.members} members" if fit.members is not None else "")
+                   + (f"; {family.reason}" if family is not None else ""))
         return MethodOutput(params=fit.params, yielded=fit.yielded, reproduced=reproduced,
                             initial=fit.stages[stage_names[0]], stages=dict(fit.stages),
                             draws=draws, member_responses=member_responses, device="cpu",
-                            message=message)
+                            message=message, family=family)
 
 
 class PinnMethod:
