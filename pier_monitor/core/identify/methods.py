@@ -548,7 +548,9 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         # the ensemble only for the fit that is kept: one member to choose by
         first = method.run(window, replace(settings, members=1), callback)
         out = _better_of_fits(window, requested, first, callback)
-        if out is first and settings.members > 1:
+        if out is not first:  # the field reconstruction, with its own members
+            settings = with_members(requested, "field")
+        elif settings.members > 1:
             out = method.run(window, settings, callback, first=first)
     else:
         out = method.run(window, settings, callback)
