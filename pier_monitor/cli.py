@@ -40,7 +40,7 @@ from pier_monitor.core.synthetic.measurement import SensorImperfections
 from pier_monitor.core.synthetic.rc import HYSTERESIS_FAMILIES
 from pier_monitor.core.synthetic.reference import table1_model
 from pier_monitor.fleet import FleetOptions, FleetProgress, LocalPool, RayBackend, run_fleet
-from pier_monitor.core.identify.methods import METHODS, IdentifySettings
+from pier_monitor.core.identify.methods import DEFAULT_MEMBERS, METHODS, IdentifySettings
 from pier_monitor.events import EventOutcome
 from pier_monitor.pipeline import BagOutcome, identify_bag
 from pier_monitor.training_progress import TrainingProgress
@@ -247,8 +247,10 @@ def _add_training_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-epochs", type=_positive_int, default=None,
                         help="epoch limit of the training (default: the benchmarked setting)")
     parser.add_argument("--members", type=_positive_int, default=None,
-                        help="ensemble members identified together, for the uncertainty of every "
-                             f"number (default {IdentifySettings().members}; 1: no uncertainty)")
+                        help="ensemble members identified together, for the 90 %% interval of "
+                             "every number (default: the route's own, "
+                             + ", ".join(f"{v} {k}" for k, v in DEFAULT_MEMBERS.items())
+                             + "; 1: no uncertainty, the fastest)")
     parser.add_argument("--method", choices=METHODS, default="auto",
                         help="pinn: equation-error start and PINN (every level with a "
                              "displacement and an acceleration); equation_error: that start "

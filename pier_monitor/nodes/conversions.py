@@ -288,7 +288,9 @@ def progress_msg(event_id: str, progress: Progress, stamp_ns: int) -> Identifica
 
 
 def damage_diagnostics(fields: dict[str, Any], stamp_ns: int, *,
-                       k1_vs_design_pct: Sequence[float | None] = ()) -> DiagnosticArray:
+                       k1_vs_design_pct: Sequence[float | None] = (),
+                       poorly_identified: Sequence[Sequence[str]] | None = None
+                       ) -> DiagnosticArray:
     """``/diagnostics`` of a damage state (:func:`pier_monitor.report.diagnostics.
     diagnostics_fields`): one status per section, then the identifier's.
 
@@ -301,8 +303,12 @@ def damage_diagnostics(fields: dict[str, Any], stamp_ns: int, *,
     k1_vs_design_pct : sequence of float or None
         Per section, the difference of ``k1`` from the design values, %
         (:func:`pier_monitor.report.results.k1_vs_design`).
+    poorly_identified : sequence of sequence of str, optional
+        Per section, the quantities whose interval is too wide (``SectionResult.
+        poorly_identified``); None: not shown.
     """
-    diag = diagnostics_fields(fields, stamp_ns, k1_vs_design_pct=k1_vs_design_pct)
+    diag = diagnostics_fields(fields, stamp_ns, k1_vs_design_pct=k1_vs_design_pct,
+                              poorly_identified=poorly_identified)
     for st in diag["status"]:
         st["level"] = bytes([st["level"]])  # rclpy's byte fields take one-byte bytes
     return fill_message(DiagnosticArray(), diag)

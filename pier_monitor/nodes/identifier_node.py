@@ -106,8 +106,9 @@ class IdentifierNode(Node):
                 lo=1e-9, hi=1.0)
         declare(self, "lr_params", dp.lr_params, "Adam learning rate of the log-parameters",
                 lo=1e-9, hi=1.0)
-        declare(self, "members", d.members, "Ensemble members identified together (the "
-                "uncertainty of every number; 1: none)", lo=1, hi=1024)
+        declare(self, "members", d.members, "Ensemble members identified together (the 90 % "
+                "interval of every number; 0: the route's default; 1: none, the fastest)",
+                lo=0, hi=1024)
         declare(self, "method", d.method, "pinn: equation-error start and PINN (every level "
                 "with a displacement and an acceleration); field: the reconstruction from the "
                 "accelerations; auto: pinn where every level is fully measured, else field",
@@ -233,8 +234,9 @@ class IdentifierNode(Node):
         self._state_pub.publish(damage_state_msg(fields))
         self._publish_frame(result.pier_id)
         self._markers_pub.publish(damage_markers_msg(fields))
-        self._diagnostics = damage_diagnostics(fields, self._now_ns(),
-                                               k1_vs_design_pct=k1_vs_design(result))
+        self._diagnostics = damage_diagnostics(
+            fields, self._now_ns(), k1_vs_design_pct=k1_vs_design(result),
+            poorly_identified=[s.poorly_identified for s in result.sections])
         self._diag_pub.publish(self._diagnostics)
 
     def _publish_frame(self, pier_id: str) -> None:

@@ -24,7 +24,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from pier_monitor.core.identify.damage import DamageState
+from pier_monitor.core.identify.damage import NO_INTERVAL, DamageState
 from pier_monitor.core.ingest.recording import ns_to_stamp
 
 __all__ = ["DIAGNOSTICS_TOPIC", "DIAGNOSTIC_ARRAY_TYPE", "DIAGNOSTIC_LEVELS", "LEVEL_OK",
@@ -100,6 +100,27 @@ def _section_message(fields: dict[str, Any], s: dict[str, Any], state: str,
     return text[:500]
 
 
+#: The field of a section's 90 % interval of each quantity ``poorly_identified`` may name.
+_FLAG_FIELDS = {"k1": "k1", "k2": "k2", "fy": "fy", "c": "c", "DF": "ductility_factor"}
+
+
+def poorly_identified_text(s: dict[str, Any], names: Sequence[str]) -> str:
+    """``poorly_identified``'s value: each quantity named with its 90 % interval and the
+    interval's relative half-width (``c [1.1e+07, 2.3e+07] ±35 %; ...``), ``none`` when
+    every interval is within its limit, :data:`NO_INTERVAL` for a single identification."""
+    if not _has_uncertainty(s):
+        return NO_INTERVAL
+    parts = []
+    for name in names:
+        key = _FLAG_FIELDS[name]
+        lo, hi, mean = s[f"{key}_lo"], s[f"{key}_hi"], s[f"{key}_mean"]
+        half = 50.0 * (hi - lo) / abs(mean) if math.isfinite(mean) and mean else math.nan
+        parts.append(f"{name} {_interval(lo, hi)}"
+                     + (f" ±{half:.0f} %" if math.isfinite(half) and hi > lo else
+                        " (too few members yielded)"))
+    return "; ".join(parts) or "none"
+
+
 def _uncertainty_values(s: dict[str, Any]) -> list[tuple[str, str]]:
     """Key-values of a section's uncertainty (none for a single identification)."""
     if not _has_uncertainty(s):
@@ -117,7 +138,9 @@ def _uncertainty_values(s: dict[str, Any]) -> list[tuple[str, str]]:
 
 
 def diagnostics_fields(fields: dict[str, Any], stamp_ns: int, *,
-                       k1_vs_design_pct: Sequence[float | None] = ()) -> dict[str, Any]:
+                       k1_vs_design_pct: Sequence[float | None] = (),
+                       poorly_identified: Sequence[Sequence[str]] | None = None
+                       ) -> dict[str, Any]:
     """The fields of the ``DiagnosticArray`` of a damage state.
 
     A section's status has the values k1, ``k1_change_pct`` (its change from an earlier
@@ -128,8 +151,12 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int, *,
     ``k1_change_90pct`` (with a change only) and ``ductility_factor_90pct`` (``[lo, hi]``),
     ``k1_change_scatter_pct`` (with a change only), ``p_yielded``, ``p_intact``,
     ``p_suspicious``, ``p_damaged`` and ``reasons`` (``; ``-separated, empty when the state
-    is the most probable one).  The identifier's status has the event, epochs, device and
-    number of members.
+    is the most probable one).  With ``poorly_identified`` given, every section also has
+    ``poorly_identified``: the quantities whose 90 % interval is wider than
+    :data:`~pier_monitor.core.identify.damage.IDENTIFIABILITY_LIMITS` allows, each with its
+    interval (:func:`poorly_identified_text`; ``none``, or ``no interval (1 member)``), and
+    a section's message names them.  The identifier's status has the event, epochs, device
+    and number of members.
 
     Parameters
     ----------
@@ -140,6 +167,9 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int, *,
     k1_vs_design_pct : sequence of float or None, optional
         Per section, ``k1``'s difference from the design values, % (the result's
         ``SectionResult.k1_vs_design_pct``); none given: the key is left out.
+    poorly_identified : sequence of sequence of str, optional
+        Per section, the result's ``SectionResult.poorly_identified``; None: the key is
+        left out.
 
     Returns
     -------
@@ -155,6 +185,10 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int, *,
         state = DamageState(s["state"]).name.lower()
         design = vs_design[i] if i < len(vs_design) else None
         message = _section_message(fields, s, state, design)
+        flags = () if poorly_identified is None or i >= len(poorly_identified) \
+            else tuple(poorly_identified[i])
+        if flags and fields["success"]:
+            message = (message + "; poorly identified: " + ", ".join(flags))[:500]
         values = (("event_id", fields["event_id"]), ("state", state),
                   ("z_bottom_m", _fmt(s["z_bottom_m"])), ("z_top_m", _fmt(s["z_top_m"])),
                   ("k1", _fmt(s["k1"])),
@@ -164,7 +198,9 @@ def diagnostics_fields(fields: dict[str, Any], stamp_ns: int, *,
                   ("ductility_factor_upper_bound", "true" if _df_bound(s) else "false"),
                   ("k2", _fmt(s["k2"]) if s["k2_identifiable"] else "not identifiable"),
                   ("fy", _fmt(s["fy"]) if s["fy_identifiable"] else "not identifiable"),
-                  ("c", _fmt(s["c"])), *_uncertainty_values(s))
+                  ("c", _fmt(s["c"])), *_uncertainty_values(s),
+                  *((("poorly_identified", poorly_identified_text(s, flags)),)
+                    if poorly_identified is not None else ()))
         status.append({"level": DIAGNOSTIC_LEVELS[DamageState(s["state"])],
                        "name": f"pier_monitor/{pier}/section_{s['index'] + 1}",
                        "message": message, "hardware_id": pier,

@@ -34,7 +34,8 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from pier_monitor.core.errors import ReportError
-from pier_monitor.core.identify.damage import (DAMAGED_DF, SUSPICIOUS_DF, IdentificationResult,
+from pier_monitor.core.identify.damage import (DAMAGED_DF, IDENTIFIABILITY_LIMITS, NO_INTERVAL,
+                                               SUSPICIOUS_DF, IdentificationResult,
                                                SectionResult)
 from pier_monitor.core.identify.uncertainty import MemberResponses
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
@@ -197,7 +198,10 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
     whose spring never yielded have an open marker: their DF is only an upper bound (≈ 1).
     With exactly two results, the ``k1`` change of the second against the first (%) is
     written beside its markers.  Sections identified by an ensemble have error bars from
-    the 5th to the 95th percentile of the members, on ``k1`` and on the DF.  An unreliable
+    the 5th to the 95th percentile of the members, on ``k1`` and on the DF; a bar is dashed
+    where the quantity is poorly identified (``SectionResult.poorly_identified``: its
+    interval too wide to tell), and a figure of single identifications says "no interval
+    (1 member)" in its legend.  An unreliable
     result (failed its self-check) is drawn grey and dashed, "no diagnosis" in the legend.
 
     Parameters
@@ -273,7 +277,7 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         for ax in (ax_k, ax_df):
             for z in np.unique(np.concatenate([zb, zt])):
                 ax.axhline(z, color="0.6", lw=0.6, zorder=0)
-        any_bound = False
+        any_bound = any_poor = False
         event_handles = []
         # markers of the events a little apart in height, so that equal values stay visible
         zj = [zm - (j - 0.5 * (len(results) - 1)) * 0.2 * (zt - zb) for j in range(len(results))]
@@ -294,10 +298,16 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
             ax_df.plot(df_all[j][~yielded], zj[j][~yielded], ls="none", marker=marker, ms=7,
                        mfc="white", mec=color, mew=1.6)
             if k_err is not None:
-                ax_k.errorbar(k_vals[j], zj[j], xerr=k_err[:, j], ls="none", color=color,
-                              elinewidth=1.4, capsize=4)
-                ax_df.errorbar(df_all[j], zj[j], xerr=df_err[:, j], ls="none", color=color,
-                               elinewidth=1.4, capsize=4)
+                # a poorly identified k1 or DF: its bar dashed (its interval too wide to tell)
+                for ax, vals, err, name in ((ax_k, k_vals, k_err, "k1"),
+                                            (ax_df, df_all, df_err, "DF")):
+                    poor = np.array([name in s.poorly_identified for s in r.sections])
+                    any_poor |= bool(poor.any())
+                    for mask, style in ((~poor, "-"), (poor, "--")):
+                        if mask.any():
+                            bars = ax.errorbar(vals[j][mask], zj[j][mask], xerr=err[:, j][:, mask],
+                                               ls="none", color=color, elinewidth=1.4, capsize=4)
+                            bars[2][0].set_linestyle(style)
             overall = ("unreliable, no diagnosis" if r.unreliable_reasons
                        else r.overall_state)
             event_handles.append((line, marker, color, f"{labels[j]} (overall: {overall})"))
@@ -359,6 +369,14 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
             handles.append(Line2D([], [], color="0.2", lw=1.4, marker="|", ms=9,
                                   label=f"bars: 90 % interval over the ensemble\n"
                                         f"({members} members, 5th–95th percentile)"))
+            if any_poor:
+                handles.append(Line2D([], [], color="0.2", lw=1.4, ls="--", marker="|", ms=9,
+                                      label=f"dashed bar: poorly identified (interval wider\n"
+                                            f"than ±{100 * IDENTIFIABILITY_LIMITS['k1']:.0f} % "
+                                            f"on k1, ±{100 * IDENTIFIABILITY_LIMITS['DF']:.0f} % "
+                                            "on DF)"))
+        else:
+            handles.append(Line2D([], [], ls="none", label=f"intervals: {NO_INTERVAL}"))
         fig.legend(handles=handles, loc="outside lower center", ncols=min(3, len(handles)),
                    frameon=False)
         events = " vs ".join(labels) if len(labels) > 1 else labels[0]

@@ -273,7 +273,8 @@ def write_damage_states_mcap(results: Sequence[IdentificationResult], path: str 
                                                            fields["header"]["stamp"]))),
                 (DIAGNOSTICS_TOPIC, DIAGNOSTIC_ARRAY_TYPE, False,
                  message_from_fields(DIAGNOSTIC_ARRAY_TYPE, diagnostics_fields(
-                     fields, log_ns, k1_vs_design_pct=k1_vs_design(result))))):
+                     fields, log_ns, k1_vs_design_pct=k1_vs_design(result),
+                     poorly_identified=[s.poorly_identified for s in result.sections])))):
             if (topic, typename, latched) not in connections:
                 connections.append((topic, typename, latched))
             cdr = bytes(typestore.serialize_cdr(message, typename))

@@ -8,11 +8,17 @@ each state, then the reasons of the promoted states, e.g.::
     section  k1 (GN·m/rad)          ...  DF                 P(yielded)  P(intact/susp./dam.)
           1  1.210 [1.190, 1.232]   ...  1.32 [1.18, 1.46]        1.00  0.12 / 0.63 / 0.25
     section 1: DF 90 % interval [1.18, 1.46] straddles 1.2
+
+A ``*`` marks a poorly identified quantity (its 90 % interval wider than
+:data:`~pier_monitor.core.identify.damage.IDENTIFIABILITY_LIMITS` allows), named again under
+the table with its interval.  A single identification has no interval: the table is the
+line ``intervals: no interval (1 member)``.
 """
 
 from __future__ import annotations
 
-from pier_monitor.core.identify.damage import IdentificationResult
+from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, NO_INTERVAL,
+                                               IdentificationResult, SectionResult)
 from pier_monitor.core.identify.uncertainty import Spread
 
 from ._common import engineering_scale, format_interval
@@ -32,9 +38,11 @@ def _cell(spread: Spread, factor: float, fmt: str) -> str:
 
 
 def uncertainty_table(result: IdentificationResult) -> str:
-    """The uncertainty of every section as a fixed-width table, then the reasons.
+    """The uncertainty of every section as a fixed-width table, then the reasons and the
+    poorly identified quantities.
 
-    Empty for a result without uncertainty (a single identification).  ``k2`` and ``fy`` are
+    ``intervals: no interval (1 member)`` for a result without uncertainty (a single
+    identification).  ``k2`` and ``fy`` are
     over the members whose spring yielded (``n/a`` when none did); the change of ``k1`` is
     against an earlier event (``-`` for the first event of a pier), ``vs design`` the
     difference from the design values (not a change); ``≤`` marks the DF of a spring that
@@ -42,7 +50,7 @@ def uncertainty_table(result: IdentificationResult) -> str:
     """
     sections = [s for s in result.sections if s.uncertainty is not None]
     if not sections:
-        return ""
+        return f"intervals: {NO_INTERVAL}"
     scales = {}
     for name, _, unit in _QUANTITIES:
         values = [v for s in sections for v in (getattr(s.uncertainty, name).lo,
@@ -57,16 +65,31 @@ def uncertainty_table(result: IdentificationResult) -> str:
             "percentile of the members]", head, "-" * len(head)]
     for s in sections:
         u = s.uncertainty
-        cells = "  ".join(f"{_cell(getattr(u, name), scales[name][0], '.3f'):<{width}}"
+        flag = {name: "*" if name in s.poorly_identified else "" for name in IDENTIFIABILITY_LIMITS}
+        cells = "  ".join(f"{_cell(getattr(u, name), scales[name][0], '.3f') + flag[name]:<{width}}"
                           for _, name in cols)
         p = " / ".join(f"{v:.2f}" for v in u.p_state)
         change = "-" if s.k1_change_pct is None else (
             f"{s.k1_change_pct:+.1f} "
             f"{format_interval(s.k1_change_lo_pct, s.k1_change_hi_pct, '+.1f')}")
         design = "" if s.k1_vs_design_pct is None else f"{s.k1_vs_design_pct:+.1f}"
-        df = ("" if s.yielded else "≤ ") + _cell(u.ductility_factor, 1.0, '.2f')
+        df = ("" if s.yielded else "≤ ") + _cell(u.ductility_factor, 1.0, '.2f') + flag["DF"]
         rows.append(f"{s.index + 1:>7}  {cells}  {df:<18} "
                     f"{u.p_yielded:>10.2f}  {p:<20}  {change:<20}  {design}")
     rows += [f"section {s.index + 1}: {s.state}: {reason}" for s in sections
              for reason in s.reasons]
+    limits = ", ".join(f"{k} ±{100 * v:.0f} %" for k, v in IDENTIFIABILITY_LIMITS.items())
+    for s in sections:
+        if s.poorly_identified:
+            rows.append(f"section {s.index + 1}: * poorly identified (90 % interval wider than "
+                        f"{limits}): " + "; ".join(_flagged(s, name)
+                                                   for name in s.poorly_identified))
     return "\n".join(rows)
+
+
+def _flagged(section: SectionResult, name: str) -> str:
+    """A poorly identified quantity with its interval and relative half-width."""
+    spread = getattr(section.uncertainty, "ductility_factor" if name == "DF" else name)
+    half = spread.relative_half_width()
+    width = f" ±{100 * half:.0f} %" if half == half else " (too few members yielded)"
+    return f"{name} {format_interval(spread.lo, spread.hi, '.3g')}{width}"

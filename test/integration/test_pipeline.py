@@ -89,6 +89,8 @@ def test_command_line_identify_and_compare(bag, tmp_path, capsys):
     text = capsys.readouterr().out
     assert rc == 0
     assert text.count("overall state") == 2 and "k1 change" in text
+    # intervals by default: the equation-error route's ensemble
+    assert text.count("uncertainty over 16 members") == 2
     events = sorted(p for p in out.iterdir() if p.is_dir())
     rc = main(["compare", str(events[0]), str(events[1]), "--out", str(tmp_path / "cmp")])
     text = capsys.readouterr().out
@@ -119,6 +121,8 @@ def test_bag_without_configuration_needs_one_given(bag, tmp_path, capsys):
     cfg_file = tmp_path / "pier.yaml"
     cfg_file.write_text(rec.config.to_yaml())
     rc = main(["identify", str(bare), "--pier", str(cfg_file), "--out", str(tmp_path / "o"),
-               "--max-epochs", "30", "--no-progress"])
+               "--max-epochs", "30", "--no-progress", "--members", "1"])
     assert rc == 0
-    assert capsys.readouterr().out.count("overall state") == 2
+    text = capsys.readouterr().out
+    assert text.count("overall state") == 2
+    assert text.count("intervals: no interval (1 member)") == 2

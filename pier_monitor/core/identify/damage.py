@@ -73,6 +73,10 @@ __all__ = [
     "SectionResult",
     "IdentificationResult",
     "build_sections",
+    "IDENTIFIABILITY_LIMITS",
+    "NO_INTERVAL",
+    "poorly_identified",
+    "with_identifiability",
     "capped_ductility",
     "member_ductility",
     "failed_result",
@@ -83,6 +87,26 @@ __all__ = [
 #: The float fields of a section (``null`` in a result file is NaN).
 _SECTION_FLOATS = ("z_bottom_m", "z_top_m", "k1", "k2", "fy", "c", "yield_angle_rad",
                    "max_angle_rad", "ductility_factor")
+
+#: Largest relative half-width of a 90 % interval (``(hi − lo) / (2 |mean|)``, see
+#: :meth:`~pier_monitor.core.identify.uncertainty.Spread.relative_half_width`) of a
+#: well-identified quantity; a wider one is "poorly identified" (:func:`poorly_identified`):
+#:
+#: * ``k1`` ±10 %: a crack costs a section 10-30 % of its initial stiffness, and the k1 loss
+#:   against an earlier event is the evidence of it; an interval wider than ±10 % cannot tell
+#:   a cracked section from an intact one;
+#: * ``DF`` ±30 %: the states change at DF 1.2 and 1.5, 25 % apart; an interval wider than
+#:   ±30 % spans more than a class, the DF does not say which;
+#: * ``k2``, ``fy`` ±30 %: the yield angle ``fy / k1``, and with it the DF, moves as ``fy``
+#:   does, so ``fy`` has the DF's limit; ``k2`` (the post-yield slope, a tenth of ``k1`` or
+#:   less) sets the plastic excursion at the same order;
+#: * ``c`` ±30 %: the damper carries a small share of the moment and is the least identified
+#:   of the four on every route; ±30 % still tells a lightly damped section from a heavily
+#:   damped one.
+IDENTIFIABILITY_LIMITS = {"k1": 0.10, "k2": 0.30, "fy": 0.30, "c": 0.30, "DF": 0.30}
+
+#: What the outputs say where there is no interval: a single identification.
+NO_INTERVAL = "no interval (1 member)"
 
 #: A section is reported "not yielded" only while the probability that its spring yielded
 #: (the share of the ensemble's members) is below this.
@@ -240,6 +264,11 @@ class SectionResult:
     energy_indices`; None when not computed); ``evidence`` the self-check's reasons that make
     the section at least suspicious (rules 5-6 of the module), kept when the state is decided
     again against another baseline.
+
+    ``poorly_identified`` names the quantities (``k1``, ``k2``, ``fy``, ``c``, ``DF``) whose
+    90 % interval is wider than :data:`IDENTIFIABILITY_LIMITS` allows
+    (:func:`poorly_identified`): shown with their interval, never a basis of a state.
+    Empty without an ensemble (no interval: nothing flagged).
     """
 
     index: int
@@ -269,6 +298,7 @@ class SectionResult:
     k_secant: float | None = None
     k_small_after: float | None = None
     stiffness_loss_pct: float | None = None
+    poorly_identified: tuple[str, ...] = ()
 
     @property
     def ductility_factor_upper_bound(self) -> bool:
@@ -333,6 +363,7 @@ class SectionResult:
         d["reasons"] = list(self.reasons)
         d["ductility_factor_upper_bound"] = self.ductility_factor_upper_bound
         d["evidence"] = list(self.evidence)
+        d["poorly_identified"] = list(self.poorly_identified)
         return d
 
     @classmethod
@@ -349,6 +380,7 @@ class SectionResult:
             d["uncertainty"] = SectionUncertainty.from_dict(d["uncertainty"])
         d["reasons"] = tuple(d.get("reasons", ()))
         d["evidence"] = tuple(d.get("evidence", ()))
+        d["poorly_identified"] = tuple(d.get("poorly_identified", ()))
         return cls(**d)
 
 
@@ -425,6 +457,13 @@ class IdentificationResult:
         """Number of ensemble members behind the sections (1: a single identification)."""
         return max((s.uncertainty.members for s in self.sections
                     if s.uncertainty is not None), default=1)
+
+    @property
+    def intervals(self) -> str:
+        """What the sections' intervals are, as result.json says it: ``90 % interval over M
+        members`` for an ensemble, :data:`NO_INTERVAL` for a single identification."""
+        m = self.members
+        return NO_INTERVAL if m < 2 else f"90 % interval over {m} members"
 
     @property
     def params(self) -> SpringParameters:
@@ -563,6 +602,7 @@ class IdentificationResult:
         d["unreliable_reasons"] = list(self.unreliable_reasons)
         d["findings"] = [f.as_dict() for f in self.findings]
         d["partial"] = None if self.partial is None else {"reason": self.partial}
+        d["intervals"] = self.intervals
         return d
 
     @classmethod
@@ -570,6 +610,7 @@ class IdentificationResult:
         """Inverse of :meth:`to_dict`; a result written before uncertainty, the self-check or
         the findings existed loads."""
         d = dict(d)
+        d.pop("intervals", None)  # derived from the sections' uncertainty
         d["sections"] = tuple(SectionResult.from_dict(s) for s in d["sections"])
         for name in ("window_start_s", "window_duration_s", "final_loss", "wall_time_s"):
             d[name] = nan_if_none(d[name])
@@ -658,6 +699,34 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
     change = k1_change_pct(params.k1, baseline_k1)
     base = np.asarray(baseline_k1, dtype=float)
     return tuple(s.rebased(float(b), float(d), "baseline") for s, b, d in zip(out, base, change))
+
+
+def poorly_identified(section: SectionResult) -> tuple[str, ...]:
+    """The quantities of ``section`` whose 90 % interval is wider than
+    :data:`IDENTIFIABILITY_LIMITS` allows, in the order ``k1, k2, fy, c, DF``.
+
+    ``k2`` and ``fy`` count only where the section is reported yielded (elsewhere they are
+    reported as not identifiable, no number); there an interval that fewer than two members
+    made (the others did not yield) is poorly identified too.  Without an ensemble
+    (``uncertainty`` None or one member) nothing is flagged: there is no interval.
+    """
+    u = section.uncertainty
+    if u is None or u.members < 2:
+        return ()
+    spreads = {"k1": u.k1, "k2": u.k2, "fy": u.fy, "c": u.c, "DF": u.ductility_factor}
+    out = []
+    for name, limit in IDENTIFIABILITY_LIMITS.items():
+        if name in ("k2", "fy") and not section.yielded:
+            continue
+        width = spreads[name].relative_half_width()
+        if not width <= limit:  # NaN (an interval of one member or none) is no interval
+            out.append(name)
+    return tuple(out)
+
+
+def with_identifiability(sections: tuple[SectionResult, ...]) -> tuple[SectionResult, ...]:
+    """The sections with their :attr:`SectionResult.poorly_identified` (states unchanged)."""
+    return tuple(replace(s, poorly_identified=poorly_identified(s)) for s in sections)
 
 
 def with_family(sections: tuple[SectionResult, ...], family: Any) -> tuple[SectionResult, ...]:

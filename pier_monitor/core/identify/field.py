@@ -38,12 +38,14 @@ This module uses no torch; the PINN (:mod:`pier_monitor.pinn`) starts from its r
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
 from pier_monitor.core.errors import IdentificationError
 from pier_monitor.core.identify.damage import member_ductility
+from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import robust_increments
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import SpringParameters
@@ -89,9 +91,6 @@ class FieldSettings:
         Time (s) over which the error of a measured displacement stays correlated: a GNSS
         reading fused with the accelerations is smoothed over about a second, so its
         samples are far from independent.
-    interval_scale : float
-        Factor on the standard deviations of the linearised posterior that the ensemble is
-        drawn from (1: as the residuals say; see :func:`_laplace_members`).
     prior_k1, prior_other, prior_shift : float
         Prior standard deviations about the design values: of log k1, of log (k2/k1) and
         log c, and of the yield-line offset (in units of fy).  They matter only where the
@@ -107,7 +106,6 @@ class FieldSettings:
     yield_share: float = 2.0
     misfit_floor: float = 0.01
     decorrelation: float = 20.0
-    interval_scale: float = 1.0
     disp_decorrelation_s: float = 1.0
     prior_k1: float = 0.3
     prior_other: float = 1.0
@@ -343,10 +341,11 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
         ingest pads windows with the quiet lead-in).
     settings : FieldSettings, optional
     members : int
-        With more than one, also members drawn from the fit's linearised posterior
-        (:class:`FieldMembers`; member 0 is the fit itself).
+        With more than one, also an ensemble by randomise-then-optimise on windows perturbed
+        as the sensors allow (:class:`FieldMembers`, :func:`_perturbed_members`; member 0
+        is the fit itself), each member with its own yield decision.
     seed : int
-        Seed of those draws.
+        Seed of the perturbations.
 
     Raises
     ------
@@ -430,18 +429,9 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
     # receiver and an accelerometer carries slow errors of its own (the accelerometer's
     # tilt with the section, the fusion's crossover) that a yielding top spring, carrying
     # the smallest moment, explains too easily
-    n_acc = pb.t_len * pb.acc.size
-    base_cost = float(np.sum(sol.fun[:n_acc] ** 2))
+    base_cost = float(np.sum(sol.fun[:pb.t_len * pb.acc.size] ** 2))
 
-    # which springs yielded: does holding a spring elastic worsen the fit?
-    yielded = np.zeros(n, dtype=bool)
-    for i in range(n):
-        if np.exp(p[i, 2]) * (1.0 - abs(p[i, 4])) >= pb.f_max[i]:
-            continue  # the fitted yield lines are never reached
-        pe = pb.held_elastic(p, np.arange(n) == i)
-        cost_el = float(np.sum(pb.residual(pe, eps)[:n_acc] ** 2))
-        gain = cost_el - base_cost
-        yielded[i] = gain > settings.yield_chi2 and gain > settings.yield_share * base_cost
+    yielded = _yield_decision(pb, p, eps, base_cost, settings)
     p_model = pb.held_elastic(p, ~yielded)  # elastic springs stay elastic
     g_fit = pb.moments(eps)
     theta, moment = pb.angles(p_model, g_fit)
@@ -462,78 +452,109 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
     misfit[pb.acc] = np.sqrt(np.mean(res ** 2, axis=0)) / pb.scale
     ensemble = None
     if members > 1:
-        ensemble = _laplace_members(pb, sol, lo, hi, yielded, members, seed,
-                                    settings.interval_scale)
+        ensemble = _perturbed_members(window, settings, pb, sol, (lo, hi, scales), members, seed)
     return FieldFit(params=params, stages=stages, yielded=yielded, gains=gains, theta=theta,
                     moment=moment, x=x, v=v, misfit=misfit, members=ensemble)
 
 
-def _laplace_members(pb: _FieldProblem, sol: optimize.OptimizeResult, lo: np.ndarray,
-                     hi: np.ndarray, yielded: np.ndarray, members: int, seed: int,
-                     scale: float = 1.0) -> FieldMembers:
-    """Members drawn from the linearised posterior of the joint fit (member 0: the fit).
+def _yield_decision(pb: _FieldProblem, p: np.ndarray, eps: np.ndarray, base_cost: float,
+                    settings: FieldSettings) -> np.ndarray:
+    """Which springs yielded (N,) bool: does holding a spring elastic worsen the fit?
 
-    The covariance is ``s² (JᵀJ)⁻¹`` of the residuals' Jacobian at the solution, with ``s²``
-    the reduced chi-square when the fit is worse than its stated misfit floor (never less
-    than one), times the residuals' correlation length over the ``decorrelation`` the
-    weights assumed (where longer), times ``scale²``; draws the linearisation does not hold for are replaced (see
-    the code).  Each member's springs and gains give its own angles and moments; a spring
-    the fit found elastic stays elastic in every member.
+    The likelihood-ratio test of ``yield_chi2`` and ``yield_share`` on the chi-square of the
+    accelerations' residuals (``base_cost``: that of the fit ``p``, ``eps``)."""
+    n_acc = pb.t_len * pb.acc.size
+    yielded = np.zeros(pb.n, dtype=bool)
+    for i in range(pb.n):
+        if np.exp(p[i, 2]) * (1.0 - abs(p[i, 4])) >= pb.f_max[i]:
+            continue  # the fitted yield lines are never reached
+        pe = pb.held_elastic(p, np.arange(pb.n) == i)
+        cost_el = float(np.sum(pb.residual(pe, eps)[:n_acc] ** 2))
+        gain = cost_el - base_cost
+        yielded[i] = gain > settings.yield_chi2 and gain > settings.yield_share * base_cost
+    return yielded
+
+
+def _gauss_newton(res: Callable[[np.ndarray], np.ndarray], z0: np.ndarray, jac: np.ndarray,
+                  lo: np.ndarray, hi: np.ndarray, scales: np.ndarray, steps: int = 12
+                  ) -> np.ndarray:
+    """Minimise ``|res(z)|²`` from ``z0`` by Levenberg-Marquardt steps with the Jacobian
+    ``jac`` of the fit at ``z0`` (a perturbed member's problem differs from the fit's by its
+    data, not its model: the Jacobian holds), within the bounds.  The damping grows tenfold
+    after a step that does not lower the cost and shrinks after one that does, so that
+    directions the data and priors hardly determine take small steps.  At most ``steps``
+    residual evaluations after the first."""
+    js = jac * scales
+    jtj = js.T @ js
+    diag = np.maximum(np.diag(jtj), 1e-12 * max(float(np.diag(jtj).max()), 1e-300))
+    z, r = z0, res(z0)
+    cost = float(r @ r)
+    mu = 1e-3
+    for _ in range(steps):
+        step = np.linalg.solve(jtj + mu * np.diag(diag), -(js.T @ r)) * scales
+        trial = np.clip(z + step, lo, hi)
+        r_t = res(trial)
+        c_t = float(r_t @ r_t)
+        if c_t < cost:
+            done = cost - c_t < 1e-4 * cost
+            z, r, cost, mu = trial, r_t, c_t, mu / 10.0
+            if done:
+                break
+        else:
+            mu *= 10.0
+    return z
+
+
+def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _FieldProblem,
+                       sol: optimize.OptimizeResult,
+                       box: tuple[np.ndarray, np.ndarray, np.ndarray], members: int, seed: int
+                       ) -> FieldMembers:
+    """The ensemble by randomise-then-optimise (member 0: the fit itself).
+
+    Member ``m`` fits the joint problem again on the window perturbed as its sensors allow
+    (:func:`~pier_monitor.core.identify.ensemble.member_windows`: the accelerations' noise
+    and each level's gain, known to ``noise.gain_rel``; the drift of measured displacements
+    and velocities), with the prior means of the parameters drawn from the priors
+    themselves (``prior_k1``, ``prior_other``, ``prior_shift`` about the design values): for
+    a linear Gaussian problem such members are exact draws of the posterior, and a
+    parameter the data say little about (a spring between unmeasured levels) spreads as
+    wide as its prior allows.  Each member starts from the fit's solution (the start is no
+    source of spread), is optimised by Gauss-Newton steps with the fit's Jacobian
+    (:func:`_gauss_newton`: exact for a linear problem, a few residual evaluations where a
+    new joint fit would take hundreds) and makes its own yield decision (:func:`_yield_decision`), so that
+    the share of the members whose spring yielded is the probability the data give it; a
+    spring that did not yield reports ``fy`` as its largest moment.
     """
     n = pb.n
-    jac = np.asarray(sol.jac)
-    dof = max(sol.fun.size - sol.x.size, 1)
-    s2 = max(2.0 * float(sol.cost) / dof, 1.0)
-    # samples per independent residual, from the residuals' own autocorrelation (integrated
-    # up to its first zero); the weights assumed ``decorrelation`` samples
-    res = sol.fun[:pb.t_len * pb.acc.size].reshape(pb.t_len, pb.acc.size)
-    taus = []
-    for col in res.T:
-        col = col - col.mean()
-        spec = np.fft.rfft(col, 2 * col.size)
-        ac = np.fft.irfft(spec * np.conj(spec))[:col.size]
-        ac = ac / ac[0] if ac[0] > 0 else ac
-        neg = np.flatnonzero(ac < 0)
-        cut = neg[0] if neg.size else col.size
-        taus.append(1.0 + 2.0 * ac[1:cut].sum())
-    s2 *= max(float(np.mean(taus)) * pb.weight ** 2, 1.0)
-    cov = s2 * scale ** 2 * np.linalg.pinv(jac.T @ jac)
-    w, vec = np.linalg.eigh(0.5 * (cov + cov.T))
-    root = vec * np.sqrt(np.clip(w, 0.0, None))
-    rng = np.random.default_rng(seed)
-    # the linearisation fails far from the fit (a spring that only just yields: a low fy
-    # draw makes its DF explode): a draw whose chi-square rises beyond what its Gaussian
-    # allows (the 99.9 % point with as many degrees of freedom as parameters) is replaced
-    def member(z: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Chi-square, parameters (N, 5) as the members use them, moments g, angles and
-        spring moments (T, N) of a draw."""
-        p = pb.held_elastic(z[:_COLUMNS * n].reshape(n, _COLUMNS), ~yielded)
-        g = pb.moments(z[_COLUMNS * n:])
-        th, mo = pb.angles(p, g)
-        return float(np.sum(pb.residual(p, z[_COLUMNS * n:], th) ** 2)), p, g, th, mo
-
-    first = member(sol.x)
-    limit = s2 * scale ** 2 * stats.chi2.ppf(0.999, sol.x.size)
-    draws, accepted = [sol.x], [first[1:]]
-    for _ in range(8 * members):
-        if len(draws) == members:
-            break
-        z = np.clip(sol.x + root @ rng.standard_normal(sol.x.size), lo, hi)
-        cost, *rest = member(z)
-        if cost - first[0] <= limit:
-            draws.append(z)
-            accepted.append(tuple(rest))
-    draws = np.array(draws + [sol.x] * (members - len(draws)))
-    accepted += [first[1:]] * (members - len(accepted))
+    lo, hi, scales = box  # the joint fit's bounds and scales
+    rng = np.random.default_rng([seed, 1])  # the prior draws, apart from the windows'
     params = np.empty((members, n, 4))
     theta = np.empty((members, pb.t_len, n))
     moment = np.empty_like(theta)
-    for m, (p, g, theta[m], moment[m]) in enumerate(accepted):
-        k1 = np.exp(p[:, 0])
-        params[m] = np.column_stack([k1, k1 * np.exp(p[:, 1]), np.exp(p[:, 2]), np.exp(p[:, 3])])
-        params[m, ~yielded, 2] = np.abs(g[:, ~yielded]).max(axis=0)
-    reached = np.abs(moment).max(axis=1) > params[..., 2] * (1.0 - np.abs(draws[:, 4:_COLUMNS * n:_COLUMNS]))
-    member_yielded = yielded & reached
-    ductility = member_ductility(theta, params, member_yielded)
-    return FieldMembers(params=params, theta=theta, moment=moment, yielded=member_yielded,
+    yielded = np.zeros((members, n), dtype=bool)
+    finite_sd = np.where(np.isfinite(pb.prior_sd), pb.prior_sd, 0.0)
+    for m, w in enumerate(member_windows(window, members, seed=seed)):
+        if m == 0:
+            pm, z = pb, sol.x
+        else:
+            pm = _FieldProblem(w, settings)
+            pm.set_prior(pb.prior_mean + finite_sd * rng.standard_normal(pb.prior_mean.shape))
+
+            z = _gauss_newton(
+                lambda zv, pm=pm: pm.residual(zv[:_COLUMNS * n].reshape(n, _COLUMNS),
+                                              zv[_COLUMNS * n:]),
+                sol.x, np.asarray(sol.jac), lo, hi, scales)
+        p = z[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
+        eps = z[_COLUMNS * n:]
+        base = float(np.sum(pm.residual(p, eps)[:pm.t_len * pm.acc.size] ** 2))
+        yielded[m] = _yield_decision(pm, p, eps, base, settings)
+        p_model = pm.held_elastic(p, ~yielded[m])
+        g = pm.moments(eps)
+        theta[m], moment[m] = pm.angles(p_model, g)
+        k1 = np.exp(p_model[:, 0])
+        params[m] = np.column_stack([k1, k1 * np.exp(p_model[:, 1]), np.exp(p_model[:, 2]),
+                                     np.exp(p_model[:, 3])])
+        params[m, ~yielded[m], 2] = np.abs(g[:, ~yielded[m]]).max(axis=0)
+    ductility = member_ductility(theta, params, yielded)
+    return FieldMembers(params=params, theta=theta, moment=moment, yielded=yielded,
                         ductility=ductility)

@@ -39,7 +39,8 @@ import numpy as np
 from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
-                                               member_ductility, overall_state, with_family)
+                                               member_ductility, overall_state, with_family,
+                                               with_identifiability)
 from pier_monitor.core.identify.ensemble import member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
@@ -52,7 +53,7 @@ from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import angle_matrix
 
-__all__ = ["DEFAULT_TERM_WEIGHTS", "PAPER_TERM_WEIGHTS", "TERMS", "METHODS",
+__all__ = ["DEFAULT_MEMBERS", "DEFAULT_TERM_WEIGHTS", "PAPER_TERM_WEIGHTS", "TERMS", "METHODS",
            "EnsembleDraws", "EquationErrorMethod", "EquationErrorSettings", "FieldMethod",
            "IdentificationRun", "IdentifySettings", "Method", "MethodOutput", "PinnMethod",
            "PinnSettings", "Progress",
@@ -75,6 +76,12 @@ DEFAULT_TERM_WEIGHTS = dict(PAPER_TERM_WEIGHTS, newmark_a=0.0)
 
 #: The method names :func:`choose_method` accepts (``auto`` chooses one of the others).
 METHODS = ("auto", "pinn", "field", "equation_error")
+
+#: Ensemble members of each route when ``IdentifySettings.members`` is 0 (the default): as
+#: many as keep a default identification within about 30 s per event on one CPU core (the
+#: README's timings).  The PINN's members differ mostly by their start (not an uncertainty
+#: of the data), at minutes each: one.
+DEFAULT_MEMBERS = {"field": 32, "equation_error": 16, "pinn": 1}
 
 
 @dataclass
@@ -159,7 +166,7 @@ class PinnSettings:
             ("init", self.init in ("equation_error", "design")),
             ("patience", self.patience >= 1), ("tol", self.tol > 0),
             ("member_start_sd", self.member_start_sd >= 0),
-            ("param_rule", self.param_rule == "adam" or members == 1),
+            ("param_rule", self.param_rule == "adam" or members <= 1),
         ])
 
 
@@ -207,11 +214,16 @@ class IdentifySettings:
         on its equation-error start beyond the seed scatter (see the README), at minutes
         per event.
     members : int
-        Members of the ensemble (1: one identification, no uncertainty).  PINN: member 0
-        trains on the measured window from the start; the others on copies perturbed as
-        the noise model allows (:mod:`pier_monitor.core.identify.ensemble`), each from the
-        start scattered by ``member_start_sd`` (a multi-start).  Field: draws of the
-        linearised posterior.
+        Members of the ensemble; 0 (the default): the route's own, :data:`DEFAULT_MEMBERS`
+        (every field and equation-error identification then carries its 90 % intervals and
+        probabilities); 1: one identification, no uncertainty (the fastest).  Field and
+        equation-error: randomise-then-optimise, member 0 fits the measured window, the
+        others copies perturbed as the sensors allow
+        (:func:`~pier_monitor.core.identify.ensemble.member_windows`: noise, drift, gains),
+        each with its own yield decision; the start is no source of spread.  PINN: member 0
+        trains on the measured window from the start; the others on such perturbed copies,
+        each from the start scattered by ``member_start_sd`` (a multi-start): its spread is
+        mostly that start scatter, not an uncertainty of the data, and its default stays 1.
     seed : int
     device : {"auto", "cpu", "cuda"}
         Where the PINN trains; the numpy methods never resolve it.
@@ -228,7 +240,7 @@ class IdentifySettings:
 
     device: str = "auto"
     seed: int = 0
-    members: int = 1
+    members: int = 0
     method: str = "auto"
     threads: int = 0
     pinn_settings: PinnSettings = field(default_factory=PinnSettings)
@@ -269,7 +281,7 @@ class IdentifySettings:
         self.pinn_settings.validate(self.members)
         _check(self, [
             ("device", self.device in ("auto", "cpu", "cuda")),
-            ("members", self.members >= 1),
+            ("members", self.members >= 0),
             ("method", self.method in METHODS),
             ("threads", self.threads >= 0),
         ])
@@ -493,14 +505,23 @@ class EquationErrorMethod:
     settings_type = EquationErrorSettings
 
     def run(self, window: MeasuredWindow, settings: IdentifySettings,
-            callback: Callable[[Progress], None] | None = None) -> MethodOutput:
-        """Fit every member's springs to its window."""
+            callback: Callable[[Progress], None] | None = None,
+            first: MethodOutput | None = None) -> MethodOutput:
+        """Fit every member's springs to its window (``first``: member 0, this method's
+        output of one member on ``window``, already there)."""
         _require_full(window, self.name)
         own = settings.equation_error_settings
         b = angle_matrix(window.geometry.section_heights_m)
         fits, thetas, moments = [], [], []
         fit0 = None
-        for w in member_windows(window, settings.members, seed=settings.seed):
+        windows = member_windows(window, settings.members, seed=settings.seed)
+        if first is not None:
+            fits.append((np.column_stack([first.params.k1, first.params.k2, first.params.fy,
+                                          first.params.c]), first.yielded))
+            thetas.append(first.reproduced.theta)
+            moments.append(first.reproduced.moment)
+            windows = windows[1:]
+        for w in windows:
             fit = fit_equation_error(w.geometry, w.x, w.v, w.a, w.ag, w.design,
                                      moments=w.moments, yield_score=own.yield_score)
             fit0 = fit0 or fit
@@ -515,7 +536,7 @@ class EquationErrorMethod:
             thetas.append(theta)
             moments.append(g)
         params0 = SpringParameters(*fits[0][0].T)
-        first = fits[0]
+        yielded0 = fits[0][1]
         reproduced = Reproduced(t=window.t.copy(), a=window.a, v=window.v, x=window.x,
                                 theta=thetas[0], moment=moments[0])
         draws = member_responses = None
@@ -527,11 +548,11 @@ class EquationErrorMethod:
                                   ductility=member_ductility(theta, member_params, yielded))
             member_responses = MemberResponses(theta=theta, moment=np.stack(moments),
                                                x=theta @ np.linalg.inv(b).T)
-        family = _choose_family(window, fit0, thetas[0])
+        family = first.family if first is not None else _choose_family(window, fit0, thetas[0])
         message = ("equation-error fit of the measured responses"
                    + (f", {settings.members} members" if draws is not None else "")
                    + f"; {family.reason}")
-        return MethodOutput(params=params0, yielded=first[1], reproduced=reproduced,
+        return MethodOutput(params=params0, yielded=yielded0, reproduced=reproduced,
                             initial=window.design, stages={"equation_error": params0},
                             draws=draws, member_responses=member_responses, device="cpu",
                             message=message, family=family)
@@ -622,9 +643,18 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     settings.validate()
     t_start = time.perf_counter()
     method = choose_method(window, settings)
-    out = method.run(window, settings, callback)
+    requested = settings
+    settings = with_members(settings, method.name)
     if settings.method == "auto" and method.name == "equation_error":
-        out = _better_of_fits(window, settings, out, callback)
+        # the ensemble only for the fit that is kept: one member to choose by
+        first = method.run(window, replace(settings, members=1), callback)
+        out = _better_of_fits(window, requested, first, callback)
+        if out is not first:  # the field reconstruction, with its own members
+            settings = with_members(requested, "field")
+        elif settings.members > 1:
+            out = method.run(window, settings, callback, first=first)
+    else:
+        out = method.run(window, settings, callback)
     uncertainty = p_overall = None
     if out.draws is not None:
         d = out.draws
@@ -642,6 +672,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
                               uncertainty=uncertainty, yield_angles=yield_angles)
     if out.family is not None:
         sections = with_family(sections, out.family)
+    sections = with_identifiability(sections)  # shown with the intervals; no state changes
     result = IdentificationResult(
         pier_id=window.pier_id, event_id=window.event_id, sections=sections,
         overall_state=overall_state(sections), window_start_s=float(window.t[0]),
@@ -654,6 +685,14 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     return IdentificationRun(result=result, reproduced=out.reproduced, initial=out.initial,
                              history=out.history, stages=out.stages,
                              members=out.member_responses)
+
+
+def with_members(settings: IdentifySettings, route: str) -> IdentifySettings:
+    """``settings`` with the members of ``route`` where they ask for the default (0):
+    :data:`DEFAULT_MEMBERS`; unchanged otherwise."""
+    if settings.members:
+        return settings
+    return replace(settings, members=DEFAULT_MEMBERS[route])
 
 
 def _better_of_fits(window: MeasuredWindow, settings: IdentifySettings, fit: MethodOutput,
@@ -673,7 +712,7 @@ def _better_of_fits(window: MeasuredWindow, settings: IdentifySettings, fit: Met
     first = model_misfit(window, fit.params)
     if not first.fires:
         return fit
-    other = FieldMethod().run(window, settings, callback)
+    other = FieldMethod().run(window, with_members(settings, "field"), callback)
     second = model_misfit(window, other.params)
     worst_first, worst_second = _misfit_ratio(first), _misfit_ratio(second)
     if not worst_second < worst_first:

@@ -1,9 +1,11 @@
 """Uncertainty of an identification from an ensemble of members.
 
-An ensemble identification trains M members on the same window (different seeds); each
-member gives a parameter set, a ductility factor and a yield flag per section.  The scatter
-of the members is the identification's own uncertainty (the optimisation and the network's
-initialisation; not the model error).  This module summarises it:
+An ensemble identification identifies M members; each member gives a parameter set, a
+ductility factor and a yield flag per section.  On the field and equation-error routes the
+members fit the window perturbed as its sensors allow (randomise-then-optimise, each member
+with its own yield decision): their scatter is the uncertainty the data leave (not the
+model's own error).  The PINN's members differ mostly by their scattered start: their
+scatter is no uncertainty of the data.  This module summarises it:
 
 * :class:`Spread` — mean, standard deviation and the 90 % interval (5th to 95th percentile of
   the members) of one quantity, in its SI unit;
@@ -96,6 +98,14 @@ class Spread:
         (``value >= threshold``) the quantity lies.
         """
         return self.defined and self.lo < threshold <= self.hi
+
+    def relative_half_width(self) -> float:
+        """Half the 90 % interval over ``|mean|``, ``(hi − lo) / (2 |mean|)`` (dimensionless);
+        NaN when undefined, when the mean is zero or when one value made it (no standard
+        deviation: an interval of a single member says nothing of its width)."""
+        if not self.defined or self.mean == 0 or not math.isfinite(self.std):
+            return math.nan
+        return (self.hi - self.lo) / (2.0 * abs(self.mean))
 
     def relative_std(self) -> float:
         """``std / |mean|`` (dimensionless); NaN when undefined or the mean is zero."""
