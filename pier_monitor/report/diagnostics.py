@@ -24,7 +24,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from pier_monitor.core.identify.damage import NO_INTERVAL, DamageState
+from pier_monitor.core.identify.damage import NO_INTERVAL, NO_INTERVAL_FAMILY, DamageState
 from pier_monitor.core.ingest.recording import ns_to_stamp
 
 __all__ = ["DIAGNOSTICS_TOPIC", "DIAGNOSTIC_ARRAY_TYPE", "DIAGNOSTIC_LEVELS", "LEVEL_OK",
@@ -109,7 +109,7 @@ def poorly_identified_text(s: dict[str, Any], names: Sequence[str]) -> str:
     interval's relative half-width (``c [1.1e+07, 2.3e+07] ±35 %; ...``), ``none`` when
     every interval is within its limit, :data:`NO_INTERVAL` for a single identification."""
     if not _has_uncertainty(s):
-        return NO_INTERVAL
+        return NO_INTERVAL if s.get("family") in (None, "bilinear") else NO_INTERVAL_FAMILY
     parts = []
     for name in names:
         key = _FLAG_FIELDS[name]

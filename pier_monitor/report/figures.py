@@ -34,7 +34,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from pier_monitor.core.errors import ReportError
-from pier_monitor.core.identify.damage import (DAMAGED_DF, IDENTIFIABILITY_LIMITS, NO_INTERVAL,
+from pier_monitor.core.identify.damage import (DAMAGED_DF, IDENTIFIABILITY_LIMITS,
                                                SUSPICIOUS_DF, IdentificationResult,
                                                SectionResult)
 from pier_monitor.core.identify.uncertainty import MemberResponses
@@ -376,7 +376,7 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
                                             f"on k1, ±{100 * IDENTIFIABILITY_LIMITS['DF']:.0f} % "
                                             "on DF)"))
         else:
-            handles.append(Line2D([], [], ls="none", label=f"intervals: {NO_INTERVAL}"))
+            handles.append(Line2D([], [], ls="none", label=f"intervals: {results[-1].intervals}"))
         fig.legend(handles=handles, loc="outside lower center", ncols=min(3, len(handles)),
                    frameon=False)
         events = " vs ".join(labels) if len(labels) > 1 else labels[0]

@@ -17,7 +17,7 @@ line ``intervals: no interval (1 member)``.
 
 from __future__ import annotations
 
-from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, NO_INTERVAL,
+from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS,
                                                IdentificationResult, SectionResult)
 from pier_monitor.core.identify.uncertainty import Spread
 
@@ -50,7 +50,7 @@ def uncertainty_table(result: IdentificationResult) -> str:
     """
     sections = [s for s in result.sections if s.uncertainty is not None]
     if not sections:
-        return f"intervals: {NO_INTERVAL}"
+        return f"intervals: {result.intervals}"
     scales = {}
     for name, _, unit in _QUANTITIES:
         values = [v for s in sections for v in (getattr(s.uncertainty, name).lo,

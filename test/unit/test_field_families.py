@@ -50,3 +50,23 @@ def test_field_route_chooses_takeda_on_an_accelerometer_only_rc_window():
     for s, y in zip(run.result.sections, truth.yielded):
         if not y:
             assert s.ductility_factor <= 1.0
+
+
+def test_a_takeda_choice_shows_no_bilinear_interval_and_says_why():
+    """The ensemble's members refit bilinear springs: where the Takeda family is chosen,
+    their spread is not shown as its interval, and every output says why."""
+    from pier_monitor.core.identify.damage import NO_INTERVAL_FAMILY
+    from pier_monitor.report.tables import uncertainty_table
+    from pier_monitor.bench import _field_window
+    from pier_monitor.core.synthetic.field import field_case_recording
+    from pier_monitor.core.identify.methods import IdentifySettings, identify
+
+    syn = field_case_recording("edefense", "accel", False, "strong", 0, hysteresis="takeda")
+    window, _, _ = _field_window(syn, "takeda accel")
+    result = identify(window, IdentifySettings(seed=0, members=4)).result
+    assert result.family["family"] == "takeda"
+    assert all(s.uncertainty is None and s.poorly_identified == () for s in result.sections)
+    assert result.p_overall_state is None
+    assert result.intervals == NO_INTERVAL_FAMILY
+    assert uncertainty_table(result) == f"intervals: {NO_INTERVAL_FAMILY}"
+    assert result.to_dict()["intervals"] == NO_INTERVAL_FAMILY

@@ -75,6 +75,7 @@ __all__ = [
     "build_sections",
     "IDENTIFIABILITY_LIMITS",
     "NO_INTERVAL",
+    "NO_INTERVAL_FAMILY",
     "poorly_identified",
     "with_identifiability",
     "capped_ductility",
@@ -107,6 +108,10 @@ IDENTIFIABILITY_LIMITS = {"k1": 0.10, "k2": 0.30, "fy": 0.30, "c": 0.30, "DF": 0
 
 #: What the outputs say where there is no interval: a single identification.
 NO_INTERVAL = "no interval (1 member)"
+#: ... and where the spring family chosen is not the bilinear: the ensemble's members refit
+#: bilinear springs, so their spread is not the chosen family's and is not shown.
+NO_INTERVAL_FAMILY = ("no interval (modified-Takeda springs chosen; the ensemble refits "
+                      "bilinear springs)")
 
 #: A section is reported "not yielded" only while the probability that its spring yielded
 #: (the share of the ensemble's members) is below this.
@@ -461,9 +466,13 @@ class IdentificationResult:
     @property
     def intervals(self) -> str:
         """What the sections' intervals are, as result.json says it: ``90 % interval over M
-        members`` for an ensemble, :data:`NO_INTERVAL` for a single identification."""
+        members`` for an ensemble, :data:`NO_INTERVAL` for a single identification,
+        :data:`NO_INTERVAL_FAMILY` where a non-bilinear family was chosen."""
         m = self.members
-        return NO_INTERVAL if m < 2 else f"90 % interval over {m} members"
+        if m >= 2:
+            return f"90 % interval over {m} members"
+        return NO_INTERVAL if (self.family or {}).get("family") in (None, "bilinear") \
+            else NO_INTERVAL_FAMILY
 
     @property
     def params(self) -> SpringParameters:

@@ -667,6 +667,9 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     rc_family = out.family is not None and out.family.family != "bilinear"
     if rc_family:  # DF on the idealised yield of the identified skeleton, its yield decision
         yielded, yield_angles = out.family.yielded, out.family.idealised_yield_rotation
+        # the members refit bilinear springs: their spread is not this family's, and their
+        # yield decisions are not its own; the result says "no interval" and why
+        uncertainty = p_overall = None
     sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
                               baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1,
                               uncertainty=uncertainty, yield_angles=yield_angles)
