@@ -51,6 +51,7 @@ _REST_PIECE_S = 10  # ... in pieces of at most this many seconds (a pier may set
 #: displacement sensor's noise: a damaged pier settles after an event (up to about a third
 #: of that in the synthetic piers, the pinched BWBN springs the most)
 _REST_SETTLE = 3.0
+_SETTLED_S = 30  # ... and it is judged only this long after the level last moved, s
 
 
 def _noise_si(ch: HorizontalChannel) -> float:
@@ -498,7 +499,9 @@ def check_wires_at_rest(cleaned: list[CleanSensor], starts: np.ndarray,
     :data:`_REST_PIECE_S` seconds (at least :data:`_REST_MIN_S`), the straight line through
     the channel's means of the seconds must not move by more than :data:`_REST_SETTLE` times
     ``glitch_threshold`` times its noise (a damaged pier may settle slowly after an event:
-    3 mm in 10 s for a 0.1 mm noise, 18 mm/min, is the smallest drift found).  A channel that does drifts: it is excluded for the
+    3 mm in 10 s for a 0.1 mm noise, 18 mm/min, is the smallest drift found), and only
+    where the level has been still since the data began or for :data:`_SETTLED_S` seconds:
+    right after a strong shaking a damaged pier settles faster than that.  A channel that does drifts: it is excluded for the
     whole recording (its drift over the events cannot be told), with a ``drift`` finding
     naming the stretch and the rate.  Channels sampled slower than the grid (GNSS) are not
     judged here.
@@ -529,6 +532,12 @@ def check_wires_at_rest(cleaned: list[CleanSensor], starts: np.ndarray,
             sigma = _noise_si(ch)
             mean, spread = _block_line_fit(np.where(good, x, np.nan), starts)
             rest = still & np.isfinite(spread) & (spread < 3.0 * sigma)
+            # a pier settles after it moved: only seconds still since the data began, or
+            # for _SETTLED_S, are judged
+            moving = np.append(-1, np.flatnonzero(~rest & whole_len))  # -1: none yet
+            last = moving[np.searchsorted(moving, np.arange(rest.size)) - 1]
+            since = np.where(last >= 0, np.arange(rest.size) - last, np.iinfo(np.int64).max)
+            rest &= since > _SETTLED_S
             worst = None
             for r0, r1 in runs_of(rest):
                 for b0 in range(r0, r1 + 1, _REST_PIECE_S):
