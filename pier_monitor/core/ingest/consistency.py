@@ -12,7 +12,7 @@ that departs from that prediction
 * over whole seconds, by more than ``disagree_rel`` of the level's motion and well beyond
   its noise (a wrong gain, a reversed sign, a loose mount), disagrees: it is excluded over
   those seconds, not the level;
-* in its offset (the median of each second), once the offset it holds where the data begin
+* in its offset (the mean of each second), once the offset it holds where the data begin
   is taken out, lastingly (an offset step, a drift, a slow bias; :func:`_offset_changes`):
   it is excluded from where the change shows, with an ``offset_step`` or ``drift`` finding.
 
@@ -215,10 +215,12 @@ def check_accelerometers(cleaned: list[CleanSensor], starts: np.ndarray,
         # ... but a change of that offset during the recording (a step, a drift, a slow
         # bias) is a fault, not the motion; seconds in which the channel already disagrees
         # (a wrong gain or sign: its slow motion is as wrong as the rest) are left out, and
-        # so are seconds a channel lacks part of (its median is another statistic)
-        whole = (np.add.reduceat(base, starts, axis=0)
-                 == np.diff(np.append(starts, m.shape[0]))[:, None])
-        moved = _offset_changes(np.where(whole, dc, np.nan), e, sigma, starts, m.shape[0],
+        # so are seconds a channel lacks part of.  The means of the seconds, not their
+        # medians: a mean of a rigid motion is the rigid motion of the means, a median not
+        lengths = np.diff(np.append(starts, m.shape[0]))[:, None]
+        whole = np.add.reduceat(base, starts, axis=0) == lengths
+        means = np.add.reduceat(np.where(base, m, 0.0), starts, axis=0) / lengths
+        moved = _offset_changes(np.where(whole, means, np.nan), e, sigma, starts, m.shape[0],
                                 settings)
         _exclude_offsets(chans, moved, excluded[0], starts, level, report)
         base &= ~moved[0][block_of]
@@ -265,7 +267,7 @@ def _offset_changes(dc: np.ndarray, e: np.ndarray, sigma: np.ndarray, starts: np
     """``(moved, dev)``, both (n_blocks, C): the seconds in which a channel's offset has left
     the level it holds over most of the recording, and by how much (m/s²).
 
-    ``dc`` are the channels' medians of each second (NaN where a channel lacks part of
+    ``dc`` are the channels' means of each second (NaN where a channel lacks part of
     it).  Each channel's offset where the data begin (its constant bias, or the gravity a
     tilt leaks into it; :func:`_offsets`) is taken out; what is left is the slow part of the
     level's rigid motion, which each channel must follow as the other channels of the level
@@ -321,7 +323,7 @@ def _offset_changes(dc: np.ndarray, e: np.ndarray, sigma: np.ndarray, starts: np
 def _offsets(dc: np.ndarray, e: np.ndarray, ok: np.ndarray) -> np.ndarray:
     """The channels' constant offsets (C,), as they are when the data begin: the median,
     over the first :data:`_REFERENCE_S` seconds in which every channel has data, of the part
-    of the medians ``dc`` (n_blocks, C) that no rigid motion of the level explains (what is
+    of the means ``dc`` (n_blocks, C) that no rigid motion of the level explains (what is
     left after the least-squares fit of the two horizontal components).  That part is
     constant while the channels hold their offsets, shaking or not.  Without enough such
     seconds, each channel's median over the recording."""
