@@ -48,10 +48,11 @@ _REFERENCE_S = 10  # seconds at the start of the data that set the accelerometer
 _REST_MIN_S = 3  # seconds at rest in a row over which a displacement sensor's drift is judged
 _REST_PIECE_S = 10  # ... in pieces of at most this many seconds (a pier may settle slowly)
 #: A still pier's slow motion over a piece stays within this many times glitch_threshold of a
-#: displacement sensor's noise: a damaged pier settles after an event (up to about a third
-#: of that in the synthetic piers, the pinched BWBN springs the most)
+#: displacement sensor's noise (the synthetic field piers: at most 0.22 of it)
 _REST_SETTLE = 3.0
-_SETTLED_S = 30  # ... and it is judged only this long after the level last moved, s
+#: ... judged only this long after the level last moved, s: right after a strong shaking a
+#: damaged pier (pinched springs) settles by as much in 10 s
+_SETTLED_S = 30
 
 
 def _noise_si(ch: HorizontalChannel) -> float:
@@ -265,7 +266,7 @@ def _disagreeing_seconds(m: np.ndarray, e: np.ndarray, base: np.ndarray, sigma: 
 def _offset_changes(dc: np.ndarray, e: np.ndarray, sigma: np.ndarray, starts: np.ndarray,
                     n: int, settings: IngestSettings) -> tuple[np.ndarray, np.ndarray]:
     """``(moved, dev)``, both (n_blocks, C): the seconds in which a channel's offset has left
-    the level it holds over most of the recording, and by how much (m/s²).
+    the one it holds where the data begin, and by how much (m/s²).
 
     ``dc`` are the channels' means of each second (NaN where a channel lacks part of
     it).  Each channel's offset where the data begin (its constant bias, or the gravity a
@@ -342,8 +343,7 @@ def _exclude_offsets(chans: list[HorizontalChannel], moved: tuple[np.ndarray, np
     """Exclude the seconds of :func:`_offset_changes`, one finding per span: ``offset_step``
     where the offset is already off in its first seconds, ``drift`` where it grows.  A span
     starts with the seconds just before it in which the channel already disagrees (the
-    second of a step: its median mixes both offsets), so that it names when the change
-    happened."""
+    second of a step mixes both offsets), so that it names when the change happened."""
     mask, dev = moved
     n = chans[0].sensor.values.shape[0]
     for c, ch in enumerate(chans):
@@ -500,12 +500,12 @@ def check_wires_at_rest(cleaned: list[CleanSensor], starts: np.ndarray,
     their mean.  Over each stretch of such seconds in a row, cut in pieces of
     :data:`_REST_PIECE_S` seconds (at least :data:`_REST_MIN_S`), the straight line through
     the channel's means of the seconds must not move by more than :data:`_REST_SETTLE` times
-    ``glitch_threshold`` times its noise (a damaged pier may settle slowly after an event:
-    3 mm in 10 s for a 0.1 mm noise, 18 mm/min, is the smallest drift found), and only
-    where the level has been still since the data began or for :data:`_SETTLED_S` seconds:
-    right after a strong shaking a damaged pier settles faster than that.  A channel that does drifts: it is excluded for the
-    whole recording (its drift over the events cannot be told), with a ``drift`` finding
-    naming the stretch and the rate.  Channels sampled slower than the grid (GNSS) are not
+    ``glitch_threshold`` times its noise (3 mm for a 0.1 mm noise: drifts from about
+    20 mm/min are found), and only where the level has been still since the data began or
+    for :data:`_SETTLED_S` seconds (right after a strong shaking a damaged pier settles by
+    that much).  A channel that moves more drifts: it is excluded for the whole recording
+    (its drift over the events cannot be told), with a ``drift`` finding naming the stretch
+    and the rate.  Channels sampled slower than the grid (GNSS) are not
     judged here.
     """
     n = cleaned[0].values.shape[0] if cleaned else 0
@@ -551,7 +551,8 @@ def check_wires_at_rest(cleaned: list[CleanSensor], starts: np.ndarray,
                     moved = rate * (t[-1] - t[0])
                     if worst is None or abs(moved) > abs(worst[2]):
                         worst = (b0, b1, moved, rate)
-            if worst is not None and abs(worst[2]) > _REST_SETTLE * settings.glitch_threshold * sigma:
+            allowed = _REST_SETTLE * settings.glitch_threshold * sigma
+            if worst is not None and abs(worst[2]) > allowed:
                 b0, b1, moved, rate = worst
                 ch.sensor.usable[:, ch.column] = False
                 s0 = int(starts[b0])
