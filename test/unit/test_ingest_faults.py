@@ -184,6 +184,21 @@ FAULTS = [
           "l4_acc_ne.x", "excluded", (2, 0.5)),
     Fault("acc_disconnected", disconnected("l1_acc_s"), ("implausible_units", "inconsistent"),
           "l1_acc_s", "excluded"),
+    # an accelerometer's offset that changes: found against the level's other
+    # accelerometers, excluded from where it starts
+    Fault("acc_offset_step_0.3_in_run1", edit("l2_acc_e", lambda d, o, tl: d.__setitem__(
+        (slice(idx(tl.at(1, 0.6)), None), 0), d[idx(tl.at(1, 0.6)):, 0] + 0.3)),
+          "offset_step", "l2_acc_e.x", "excluded", (1, 0.6)),
+    Fault("acc_offset_step_0.1mps2_between_runs", edit("l3_acc_n", lambda d, o, tl: d.__setitem__(
+        (slice(idx(45.0), None), 0), d[idx(45.0):, 0] - 10.0)),  # gal
+          "offset_step", "l3_acc_n.x", "excluded"),
+    Fault("acc_slow_bias_0.005_per_s", edit("l1_acc_w", lambda d, o, tl: d.__setitem__(
+        (slice(idx(40.0), None), 1), d[idx(40.0):, 1] + 0.005 * np.arange(d.shape[0]
+                                                                        - idx(40.0)) / 200.0)),
+          "drift", "l1_acc_w.y", "excluded", (2, 0.5)),
+    Fault("wire_drift_30mm_per_min", edit("l2_wire_w", lambda d, o, tl: d.__setitem__(
+        (slice(None), 0), d[:, 0] + 30.0 * np.arange(d.shape[0]) / (60.0 * 200.0))),
+          "drift", "l2_wire_w.x", "excluded", (1, 0.5), degraded=(1, 2), level=2),
     Fault("wire_gain_x1.5", scaled("l2_wire_w", 1.5), "inconsistent", "l2_wire_w", "excluded",
           (1, 0.5), degraded=(1, 2), level=2),
     Fault("wire_sign_reversed", scaled("l4_wire_n", -1.0), "inconsistent", "l4_wire_n",

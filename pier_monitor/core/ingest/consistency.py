@@ -11,12 +11,17 @@ that departs from that prediction
   interpolated when short);
 * over whole seconds, by more than ``disagree_rel`` of the level's motion and well beyond
   its noise (a wrong gain, a reversed sign, a loose mount), disagrees: it is excluded over
-  those seconds, not the level.
+  those seconds, not the level;
+* in its offset (the mean of each second), once the offset it holds where the data begin
+  is taken out, lastingly (an offset step, a drift, a slow bias; :func:`_offset_changes`):
+  it is excluded from where the change shows, with an ``offset_step`` or ``drift`` finding.
 
 A displacement sensor has no such neighbours (two wires per level give the two horizontal
 components and nothing to spare), so each event compares it with its level's relative
 acceleration integrated twice in the band 0.2-10 Hz, where both are exact; a wire that
-disagrees is excluded for the event.
+disagrees is excluded for the event.  That band cannot see a slow drift, which the pier at
+rest does (:func:`check_wires_at_rest`): a wire that moves while its samples and its level's
+accelerometers show the level still is excluded for the whole recording.
 
 Accelerometers whose level of motion is off by a unit factor from the others at the level
 are caught first (:func:`check_units`).
@@ -27,16 +32,27 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from pier_monitor.core.ingest.clean import GLITCH, CleanSensor, block_median, fmt_recorded, runs_of
+from pier_monitor.core.ingest.clean import (GLITCH, CleanSensor, block_median, fmt_recorded,
+                                            nan_median, runs_of)
 from pier_monitor.core.ingest.levels import HorizontalChannel, availability_patterns, horizontal_channels
 from pier_monitor.core.ingest.settings import IngestReport, IngestSettings
 from pier_monitor.core.ingest.findings import fmt_span
 from pier_monitor.core.model.units import G_STANDARD, UNIT_FACTORS
 
-__all__ = ["check_units", "check_accelerometers", "check_displacement", "leave_one_out"]
+__all__ = ["check_units", "check_accelerometers", "check_displacement", "check_wires_at_rest",
+           "leave_one_out"]
 
 _PASSES = 3  # bad channels per level and second that can be told apart
 _BAND_HZ = (0.2, 10.0)
+_REFERENCE_S = 10  # seconds at the start of the data that set the accelerometers' offsets
+_REST_MIN_S = 3  # seconds at rest in a row over which a displacement sensor's drift is judged
+_REST_PIECE_S = 10  # ... in pieces of at most this many seconds (a pier may settle slowly)
+#: A still pier's slow motion over a piece stays within this many times glitch_threshold of a
+#: displacement sensor's noise (the synthetic field piers: at most 0.22 of it)
+_REST_SETTLE = 3.0
+#: ... judged only this long after the level last moved, s: right after a strong shaking a
+#: damaged pier (pinched springs) settles by as much in 10 s
+_SETTLED_S = 30
 
 
 def _noise_si(ch: HorizontalChannel) -> float:
@@ -193,11 +209,24 @@ def check_accelerometers(cleaned: list[CleanSensor], starts: np.ndarray,
         # horizontal channel is a constant the configuration may not know, and the ingest
         # removes it before an event; each channel's median of the second is taken out
         dc = block_median(np.where(base, m, np.nan), starts)
-        m = m - np.nan_to_num(dc)[block_of]
-        excluded = _disagreeing_seconds(m, e, base, sigma, starts, settings)
+        excluded = _disagreeing_seconds(m - np.nan_to_num(dc)[block_of], e, base, sigma,
+                                        starts, settings)
         _exclude_seconds(chans, excluded, starts, level, report)
-        _mark_glitches(chans, m, e, base & ~excluded[0][block_of], sigma, starts, level,
-                       settings)
+        base &= ~excluded[0][block_of]
+        # ... but a change of that offset during the recording (a step, a drift, a slow
+        # bias) is a fault, not the motion; seconds in which the channel already disagrees
+        # (a wrong gain or sign: its slow motion is as wrong as the rest) are left out, and
+        # so are seconds a channel lacks part of.  The means of the seconds, not their
+        # medians: a mean of a rigid motion is the rigid motion of the means, a median not
+        lengths = np.diff(np.append(starts, m.shape[0]))[:, None]
+        whole = np.add.reduceat(base, starts, axis=0) == lengths
+        means = np.add.reduceat(np.where(base, m, 0.0), starts, axis=0) / lengths
+        moved = _offset_changes(np.where(whole, means, np.nan), e, sigma, starts, m.shape[0],
+                                settings)
+        _exclude_offsets(chans, moved, excluded[0], starts, level, report)
+        base &= ~moved[0][block_of]
+        m = m - np.nan_to_num(dc)[block_of]
+        _mark_glitches(chans, m, e, base, sigma, starts, level, settings)
 
 
 def _disagreeing_seconds(m: np.ndarray, e: np.ndarray, base: np.ndarray, sigma: np.ndarray,
@@ -232,6 +261,108 @@ def _disagreeing_seconds(m: np.ndarray, e: np.ndarray, base: np.ndarray, sigma: 
         excluded[rows, worst[rows]] = True
         share[rows, worst[rows]] = ratio[rows, worst[rows]]
     return excluded, share
+
+
+def _offset_changes(dc: np.ndarray, e: np.ndarray, sigma: np.ndarray, starts: np.ndarray,
+                    n: int, settings: IngestSettings) -> tuple[np.ndarray, np.ndarray]:
+    """``(moved, dev)``, both (n_blocks, C): the seconds in which a channel's offset has left
+    the one it holds where the data begin, and by how much (m/s²).
+
+    ``dc`` are the channels' means of each second (NaN where a channel lacks part of
+    it).  Each channel's offset where the data begin (its constant bias, or the gravity a
+    tilt leaks into it; :func:`_offsets`) is taken out; what is left is the slow part of the
+    level's rigid motion, which each channel must follow as the other channels of the level
+    predict it (:func:`leave_one_out`).  A departure from that prediction that lasts (the
+    offset has changed since) is an offset step, a drift or a slow bias of the channel: it is
+    *moved* where it exceeds ``glitch_threshold`` times the channel's configured noise plus
+    five times ``gain_rel`` of the predicted slow motion (the gains the configuration does
+    not state), for at least two seconds in a row; a moved span then extends over the
+    neighbouring seconds whose departure still exceeds half the noise term.  The worst
+    channel of a second is taken first (:data:`_PASSES` channels per second at most), so that
+    one faulty channel does not make its partners look faulty.
+    """
+    nb, n_ch = dc.shape
+    moved = np.zeros((nb, n_ch), dtype=bool)
+    dev = np.full((nb, n_ch), np.nan)
+    lengths = np.diff(np.append(starts, n))
+    short = lengths < 0.5 * lengths.max()  # a stub of a second at an end says little
+    ok = np.isfinite(dc) & ~short[:, None]
+    if ok.sum(axis=0).min(initial=nb) < 5:
+        return moved, dev
+    slow = dc - _offsets(dc, e, ok)
+    floor = settings.glitch_threshold * sigma
+    for _ in range(_PASSES):
+        res, pred = leave_one_out(np.nan_to_num(slow), e, ok & ~moved)
+        largest = np.max(np.where(np.isfinite(pred), np.abs(pred), 0.0), axis=1)
+        thr = floor[None, :] + 5.0 * settings.gain_rel * largest[:, None]
+        with np.errstate(invalid="ignore"):
+            z = np.where(np.isfinite(res) & ~moved, np.abs(res) / thr, 0.0)
+        worst = np.argmax(z, axis=1)
+        hit = np.zeros_like(moved)
+        rows = np.flatnonzero(z[np.arange(nb), worst] > 1.0)
+        hit[rows, worst[rows]] = True
+        new = False
+        for c in range(n_ch):
+            for b0, b1 in runs_of(hit[:, c]):
+                if b1 == b0 and not (moved[max(b0 - 1, 0), c] or
+                                     moved[min(b1 + 1, nb - 1), c]):
+                    continue  # a single second: the disagreement check's business
+                lo, hi = b0, b1
+                weak = np.abs(np.nan_to_num(res[:, c])) > 0.5 * floor[c]
+                while lo > 0 and weak[lo - 1] and not moved[lo - 1, c]:
+                    lo -= 1
+                while hi < nb - 1 and weak[hi + 1] and not moved[hi + 1, c]:
+                    hi += 1
+                moved[lo:hi + 1, c] = True
+                dev[lo:hi + 1, c] = res[lo:hi + 1, c]
+                new = True
+        if not new:
+            break
+    return moved, dev
+
+
+def _offsets(dc: np.ndarray, e: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """The channels' constant offsets (C,), as they are when the data begin: the median,
+    over the first :data:`_REFERENCE_S` seconds in which every channel has data, of the part
+    of the means ``dc`` (n_blocks, C) that no rigid motion of the level explains (what is
+    left after the least-squares fit of the two horizontal components).  That part is
+    constant while the channels hold their offsets, shaking or not.  Without enough such
+    seconds, each channel's median over the recording."""
+    full = np.flatnonzero(ok.all(axis=1))[:_REFERENCE_S]
+    fallback = nan_median(np.where(ok, dc, np.nan), axis=0)
+    if full.size < 5 or np.linalg.matrix_rank(e, tol=1e-6) < 2:
+        return np.nan_to_num(fallback)
+    hat = e @ np.linalg.inv(e.T @ e) @ e.T
+    rest = dc[full] - dc[full] @ hat.T
+    return np.median(rest, axis=0)
+
+
+def _exclude_offsets(chans: list[HorizontalChannel], moved: tuple[np.ndarray, np.ndarray],
+                     disagreeing: np.ndarray, starts: np.ndarray, level: int,
+                     report: IngestReport) -> None:
+    """Exclude the seconds of :func:`_offset_changes`, one finding per span: ``offset_step``
+    where the offset is already off in its first seconds, ``drift`` where it grows.  A span
+    starts with the seconds just before it in which the channel already disagrees (the
+    second of a step mixes both offsets), so that it names when the change happened."""
+    mask, dev = moved
+    n = chans[0].sensor.values.shape[0]
+    for c, ch in enumerate(chans):
+        for b0, b1 in runs_of(mask[:, c]):
+            d = np.nan_to_num(dev[b0:b1 + 1, c])
+            while b0 > 0 and disagreeing[b0 - 1, c]:
+                b0 -= 1
+            s0 = int(starts[b0])
+            s1 = int(starts[b1 + 1]) - 1 if b1 + 1 < starts.size else n - 1
+            ch.sensor.usable[s0:s1 + 1, ch.column] = False
+            t0, t1 = ch.sensor.time_ns(s0), ch.sensor.time_ns(s1)
+            peak = float(d[np.argmax(np.abs(d))])
+            step = abs(np.mean(d[:2])) >= 0.5 * abs(np.median(d))
+            code, what = (("offset_step", "steps") if step else ("drift", "drifts"))
+            report.add(code, ch.name,
+                       f"its offset {what} away from the other accelerometers at level "
+                       f"{level} {fmt_span(t0, t1)}: by up to {peak:+.3g} m/s² against "
+                       "the offset it holds where the data begin (beyond its noise and "
+                       "gain); excluded there", t0, t1, "excluded")
 
 
 def _exclude_seconds(chans: list[HorizontalChannel], excluded: tuple[np.ndarray, np.ndarray],
@@ -337,3 +468,99 @@ def check_displacement(cleaned: list[CleanSensor], level: int, sl: slice,
         if share > settings.disagree_rel and res_rms > 5.0 * _noise_si(ch):
             out.append((ch, float(share)))
     return out
+
+
+def _block_line_fit(x: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and RMS about a straight line of ``x`` (T,) over each block: ``(mean, spread)``,
+    both (n_blocks,); NaN for a block that lacks a sample."""
+    n = x.shape[0]
+    lengths = np.diff(np.append(starts, n)).astype(float)
+    block_of = np.searchsorted(starts, np.arange(n), side="right") - 1
+    k = np.arange(n) - starts[block_of] - 0.5 * (lengths[block_of] - 1.0)  # centred time
+    sx = np.add.reduceat(x, starts)
+    mean = sx / lengths
+    d = x - mean[block_of]
+    skk = np.add.reduceat(k * k, starts)
+    slope = np.add.reduceat(k * d, starts) / np.where(skk > 0, skk, np.inf)
+    r = d - slope[block_of] * k
+    spread = np.sqrt(np.add.reduceat(r * r, starts) / lengths)
+    return mean, spread
+
+
+def check_wires_at_rest(cleaned: list[CleanSensor], starts: np.ndarray,
+                        settings: IngestSettings, report: IngestReport) -> None:
+    """Exclude, in place, the displacement channels that drift while the pier is at rest.
+
+    The double integral of the acceleration cannot see a displacement sensor's slow drift
+    (a constant velocity is an integration constant), but the pier can: it does not creep by
+    millimetres in seconds, and while its level is still a wire must hold a constant.  A
+    second is *at rest* for a channel when the channel's own samples lie within three times
+    its configured noise of a straight line over that second, and the level's accelerometers
+    (where it has usable ones) stay within ``trigger_noise_factor`` times their noise of
+    their mean.  Over each stretch of such seconds in a row, cut in pieces of
+    :data:`_REST_PIECE_S` seconds (at least :data:`_REST_MIN_S`), the straight line through
+    the channel's means of the seconds must not move by more than :data:`_REST_SETTLE` times
+    ``glitch_threshold`` times its noise (3 mm for a 0.1 mm noise: drifts from about
+    20 mm/min are found), and only where the level has been still since the data began or
+    for :data:`_SETTLED_S` seconds (right after a strong shaking a damaged pier settles by
+    that much).  A channel that moves more drifts: it is excluded for the whole recording
+    (its drift over the events cannot be told), with a ``drift`` finding naming the stretch
+    and the rate.  Channels sampled slower than the grid (GNSS) are not
+    judged here.
+    """
+    n = cleaned[0].values.shape[0] if cleaned else 0
+    if n == 0:
+        return
+    lengths = np.diff(np.append(starts, n))
+    whole_len = lengths >= 0.5 * lengths.max()
+    levels = sorted({cs.spec.level for cs in cleaned if cs.spec.kind == "displacement"})
+    for level in levels:
+        still = whole_len.copy()
+        accs = horizontal_channels(cleaned, "acceleration", level)
+        if accs:
+            spreads = []
+            for ch in accs:
+                a = ch.sensor.values[:, ch.column]
+                good = ch.sensor.usable[:, ch.column] & np.isfinite(a)
+                _, spread = _block_line_fit(np.where(good, a, np.nan), starts)
+                spreads.append(spread / (settings.trigger_noise_factor * _noise_si(ch)))
+            quiet = nan_median(np.stack(spreads, axis=1), axis=1)
+            still &= ~(quiet > 1.0)  # a second without usable accelerometers: the wire alone
+        for ch in horizontal_channels(cleaned, "displacement", level):
+            x = ch.sensor.values[:, ch.column]
+            good = ch.sensor.usable[:, ch.column]
+            if not good.any() or not np.isfinite(x[good]).all():
+                continue  # no data, or a slower sensor (GNSS)
+            sigma = _noise_si(ch)
+            mean, spread = _block_line_fit(np.where(good, x, np.nan), starts)
+            rest = still & np.isfinite(spread) & (spread < 3.0 * sigma)
+            # a pier settles after it moved: only seconds still since the data began, or
+            # for _SETTLED_S, are judged
+            moving = np.append(-1, np.flatnonzero(~rest & whole_len))  # -1: none yet
+            last = moving[np.searchsorted(moving, np.arange(rest.size)) - 1]
+            since = np.where(last >= 0, np.arange(rest.size) - last, np.iinfo(np.int64).max)
+            rest &= since > _SETTLED_S
+            worst = None
+            for r0, r1 in runs_of(rest):
+                for b0 in range(r0, r1 + 1, _REST_PIECE_S):
+                    b1 = min(b0 + _REST_PIECE_S - 1, r1)
+                    if b1 - b0 + 1 < _REST_MIN_S:
+                        continue
+                    t = (starts[b0:b1 + 1] + 0.5 * lengths[b0:b1 + 1]) / ch.sensor.rate_hz
+                    rate = float(np.polyfit(t, mean[b0:b1 + 1], 1)[0])
+                    moved = rate * (t[-1] - t[0])
+                    if worst is None or abs(moved) > abs(worst[2]):
+                        worst = (b0, b1, moved, rate)
+            allowed = _REST_SETTLE * settings.glitch_threshold * sigma
+            if worst is not None and abs(worst[2]) > allowed:
+                b0, b1, moved, rate = worst
+                ch.sensor.usable[:, ch.column] = False
+                s0 = int(starts[b0])
+                s1 = int(starts[b1 + 1]) - 1 if b1 + 1 < starts.size else n - 1
+                t0, t1 = ch.sensor.time_ns(s0), ch.sensor.time_ns(s1)
+                report.add("drift", ch.name,
+                           f"drifts while level {level} is at rest {fmt_span(t0, t1)}: it moves "
+                           f"{moved * 1e3:+.3g} mm ({rate * 60e3:+.3g} mm/min) where its "
+                           "samples and the level's accelerometers show no motion beyond "
+                           "their noise; excluded for the whole recording",
+                           ch.sensor.time_ns(0), ch.sensor.time_ns(n - 1), "excluded")

@@ -4,7 +4,8 @@
 for a stream's buffer: :func:`~pier_monitor.core.ingest.clean.clean_sensor` for each sensor,
 :func:`~pier_monitor.core.ingest.consistency.check_units` and
 :func:`~pier_monitor.core.ingest.consistency.check_accelerometers` across the sensors of each
-level, then :func:`~pier_monitor.core.ingest.clean.bridge_gaps`.
+level, :func:`~pier_monitor.core.ingest.consistency.check_wires_at_rest` for the displacement
+sensors, then :func:`~pier_monitor.core.ingest.clean.bridge_gaps`.
 """
 
 from __future__ import annotations
@@ -13,7 +14,8 @@ import numpy as np
 
 from pier_monitor.core.ingest.clean import (CleanSensor, block_starts, bridge_gaps, clean_sensor,
                                             data_rate_hz, rate_problem)
-from pier_monitor.core.ingest.consistency import check_accelerometers, check_units
+from pier_monitor.core.ingest.consistency import (check_accelerometers, check_units,
+                                                  check_wires_at_rest)
 from pier_monitor.core.ingest.recording import NS_PER_S, Recording, SensorRecord
 from pier_monitor.core.ingest.settings import IngestError, IngestReport, IngestSettings
 from pier_monitor.core.ingest.findings import fmt_time
@@ -83,7 +85,9 @@ def clean_recording(recording: Recording, settings: IngestSettings, report: Inge
         _report_silence(cs, rec, t_end, report)
         cleaned.append(cs)
     check_units(cleaned, report)
-    check_accelerometers(cleaned, block_starts(t0, n, rate), settings, report)
+    starts = block_starts(t0, n, rate)
+    check_accelerometers(cleaned, starts, settings, report)
+    check_wires_at_rest(cleaned, starts, settings, report)
     for cs in cleaned:
         bridge_gaps(cs, settings, report)
     return cleaned, t0, n, rate
