@@ -19,6 +19,11 @@ try:  # pragma: no cover - depends on the environment
         """Compile ``fn`` with numba (cached on disk, GIL released)."""
         return _njit(cache=True, nogil=True)(fn)
 
+    def jit_inline(fn: F) -> F:
+        """Compile ``fn`` with numba, inlined into every compiled caller (a small step
+        function called once per sample: its state then stays in registers)."""
+        return _njit(cache=True, nogil=True, inline="always")(fn)
+
 except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
@@ -26,4 +31,8 @@ except ImportError:  # pragma: no cover
         """numba is not installed: run ``fn`` as plain Python."""
         return fn
 
-__all__ = ["HAVE_NUMBA", "jit"]
+    def jit_inline(fn: F) -> F:
+        """numba is not installed: run ``fn`` as plain Python."""
+        return fn
+
+__all__ = ["HAVE_NUMBA", "jit", "jit_inline"]

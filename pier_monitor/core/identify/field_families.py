@@ -47,8 +47,8 @@ from pier_monitor.core.identify.field import (FieldFit, FieldSettings, _FieldPro
                                               _smooth_derivative)
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.springs import (
-    TAKEDA_ALPHA, TakedaParameters, _reload, _takeda_skel, bilinear_skeleton, idealised_yield,
-    takeda_skeleton, takeda_unloading_stiffness)
+    TAKEDA_ALPHA, TAKEDA_STATE_SIZE, TakedaParameters, _takeda_init, _takeda_step,
+    bilinear_skeleton, idealised_yield, takeda_skeleton, takeda_unloading_stiffness)
 
 __all__ = ["MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "YIELD_SHARE", "damped_takeda",
            "fit_field_families"]
@@ -72,57 +72,18 @@ MIN_YIELD_ROTATION_SHARE = 0.3
 
 @jit
 def _tak_trial(p, st, th):  # pragma: no cover - compiled
-    """Moment of the Takeda rule at ``th`` from the committed state ``st``; the trial state
+    """Moment of the Takeda rule at ``th`` from the committed state ``st[:9]``; the trial state
     is written to ``st[9:]`` (same layout as ``st[:9]``)."""
-    k0, mc, my, ty, kp, alpha = p[0], p[1], p[2], p[3], p[4], p[5]
-    px, py = p[6], p[7]
-    tpos, tneg, t0p, t0n, th_prev, m, direction, tm, ku = (st[0], st[1], st[2], st[3], st[4],
-                                                          st[5], st[6], st[7], st[8])
-    ky = my / ty
-    dth = th - th_prev
-    if max(tpos, -tneg) != tm:
-        tm = max(tpos, -tneg)
-        ku = min(k0, ky * (ty / tm) ** alpha)
-    if dth != 0.0:
-        if th >= tpos:
-            tpos = th
-            m = _takeda_skel(k0, mc, my, ty, kp, th)
-            direction = 1.0
-        elif th <= tneg:
-            tneg = th
-            m = _takeda_skel(k0, mc, my, ty, kp, th)
-            direction = -1.0
-        elif dth > 0.0:
-            if direction == -1.0 and m <= 0.0:
-                t0p = th_prev - m / ku
-            direction = 1.0
-            m_new = m + ku * dth
-            if th > t0p and tpos - t0p > 1e-12 * tpos:
-                mpk = _takeda_skel(k0, mc, my, ty, kp, tpos)
-                m_new = min(m_new, _reload(th, t0p, tpos, mpk, ku, px, py))
-            m = min(m_new, _takeda_skel(k0, mc, my, ty, kp, th)) if th > ty else m_new
-        else:
-            if direction == 1.0 and m >= 0.0:
-                t0n = th_prev - m / ku
-            direction = -1.0
-            m_new = m + ku * dth
-            if th < t0n and t0n - tneg > -1e-12 * tneg:
-                mpk = _takeda_skel(k0, mc, my, ty, kp, tneg)
-                m_new = max(m_new, _reload(th, t0n, tneg, mpk, ku, px, py))
-            m = max(m_new, _takeda_skel(k0, mc, my, ty, kp, th)) if th < -ty else m_new
-    st[9], st[10], st[11], st[12], st[13] = tpos, tneg, t0p, t0n, th
-    st[14], st[15], st[16], st[17] = m, direction, tm, ku
-    return m
+    s = _takeda_step(p, (st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7], st[8]), th)
+    st[9], st[10], st[11], st[12], st[13], st[14], st[15], st[16], st[17] = s
+    return s[5]
 
 
 @jit
 def _damped_takeda_kernel(p, g, dt, c, theta, f):  # pragma: no cover - compiled
-    k0, mc = p[0], p[1]
-    tc = mc / k0
-    ky = p[2] / p[3]
-    st = np.zeros(18)
-    st[0], st[1], st[7] = tc, -tc, tc
-    st[8] = min(k0, ky * (p[3] / tc) ** p[5])
+    k0 = p[0]
+    st = np.zeros(2 * TAKEDA_STATE_SIZE)
+    st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7], st[8] = _takeda_init(p)
     theta[0] = 0.0
     f[0] = 0.0
     a = 2.0 * c / dt
@@ -170,8 +131,8 @@ def _damped_takeda_kernel(p, g, dt, c, theta, f):  # pragma: no cover - compiled
                     flo *= 0.5
                 side = 1
         m = _tak_trial(p, st, x)
-        for j in range(9):
-            st[j] = st[9 + j]
+        for j in range(TAKEDA_STATE_SIZE):
+            st[j] = st[TAKEDA_STATE_SIZE + j]
         theta[i + 1] = x
         f[i + 1] = m
 

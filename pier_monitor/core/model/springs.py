@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pier_monitor.core._jit import jit
+from pier_monitor.core._jit import jit, jit_inline
 from pier_monitor.core.errors import InputDataError
 
 __all__ = [
@@ -181,53 +181,67 @@ def _reload(th, t0, tpk, mpk, ku, px, py):  # pragma: no cover - compiled
     return py * mpk + (1.0 - py) * mpk * (th - tch) / (tpk - tch)
 
 
+#: Length of one Takeda state (:func:`_takeda_step`): ``(θ+peak, θ−peak, θ0+, θ0−, θ_prev, M,
+#: direction, θm, k_u)``.
+TAKEDA_STATE_SIZE = 9
+
+
 @jit
-def _takeda_kernel(p, theta, out):  # pragma: no cover - compiled
-    k0, mc, my, ty, kp, alpha, px, py = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
-    ky = my / ty
+def _takeda_init(p):  # pragma: no cover - compiled
+    """The virgin state of the spring ``p`` (a tuple of :data:`TAKEDA_STATE_SIZE` floats)."""
+    k0, mc, my, ty, alpha = p[0], p[1], p[2], p[3], p[5]
     tc = mc / k0
-    tpos, tneg = tc, -tc
-    t0p, t0n = 0.0, 0.0
-    th_prev, m, direction = 0.0, 0.0, 0
-    tm = tc
-    ku = min(k0, ky * (ty / tm) ** alpha)
-    for i in range(theta.shape[0]):
-        th = theta[i]
-        dth = th - th_prev
-        if max(tpos, -tneg) != tm:  # a new peak: the unloading stiffness degrades
-            tm = max(tpos, -tneg)
-            ku = min(k0, ky * (ty / tm) ** alpha)
-        if dth == 0.0:
-            out[i] = m
-            continue
+    return (tc, -tc, 0.0, 0.0, 0.0, 0.0, 0.0, tc, min(k0, my / ty * (ty / tc) ** alpha))
+
+
+@jit_inline
+def _takeda_step(p, s, th):  # pragma: no cover - compiled
+    """One step of the Takeda rule to ``th`` from the state ``s``: the new state (its moment is
+    item 5).  The state is a tuple so that the loops keep it in registers."""
+    k0, mc, my, ty, kp, alpha = p[0], p[1], p[2], p[3], p[4], p[5]
+    px, py = p[6], p[7]
+    tpos, tneg, t0p, t0n, th_prev, m, direction, tm, ku = s
+    dth = th - th_prev
+    if max(tpos, -tneg) != tm:  # a new peak: the unloading stiffness degrades
+        tm = max(tpos, -tneg)
+        ku = min(k0, my / ty * (ty / tm) ** alpha)
+    if dth != 0.0:
         if th >= tpos:
             tpos = th
             m = _takeda_skel(k0, mc, my, ty, kp, th)
-            direction = 1
+            direction = 1.0
         elif th <= tneg:
             tneg = th
             m = _takeda_skel(k0, mc, my, ty, kp, th)
-            direction = -1
+            direction = -1.0
         elif dth > 0.0:
-            if direction == -1 and m <= 0.0:  # reversal on the negative side
+            if direction == -1.0 and m <= 0.0:  # reversal on the negative side
                 t0p = th_prev - m / ku
-            direction = 1
+            direction = 1.0
             m_new = m + ku * dth
             if th > t0p and tpos - t0p > 1e-12 * tpos:
                 mpk = _takeda_skel(k0, mc, my, ty, kp, tpos)
                 m_new = min(m_new, _reload(th, t0p, tpos, mpk, ku, px, py))
             m = min(m_new, _takeda_skel(k0, mc, my, ty, kp, th)) if th > ty else m_new
         else:
-            if direction == 1 and m >= 0.0:
+            if direction == 1.0 and m >= 0.0:
                 t0n = th_prev - m / ku
-            direction = -1
+            direction = -1.0
             m_new = m + ku * dth
             if th < t0n and t0n - tneg > -1e-12 * tneg:
                 mpk = _takeda_skel(k0, mc, my, ty, kp, tneg)
                 m_new = max(m_new, _reload(th, t0n, tneg, mpk, ku, px, py))
             m = max(m_new, _takeda_skel(k0, mc, my, ty, kp, th)) if th < -ty else m_new
         th_prev = th
-        out[i] = m
+    return (tpos, tneg, t0p, t0n, th_prev, m, direction, tm, ku)
+
+
+@jit
+def _takeda_kernel(p, theta, out):  # pragma: no cover - compiled
+    s = _takeda_init(p)
+    for i in range(theta.shape[0]):
+        s = _takeda_step(p, s, theta[i])
+        out[i] = s[5]
 
 
 @jit
