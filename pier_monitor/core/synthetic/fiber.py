@@ -234,15 +234,21 @@ def _build(ops, column: FiberColumn, geometry: PierGeometry) -> np.ndarray:
     return z
 
 
-def _static(ops, d_lambda: float) -> None:
+def _analysis(ops, tol: float, max_iter: int, integrator: tuple, kind: str) -> None:
+    """A fresh Newton analysis of the model (plain constraints, RCM numbering, banded
+    system), converged on the displacement increment ``tol`` within ``max_iter``."""
     ops.wipeAnalysis()
     ops.constraints("Plain")
     ops.numberer("RCM")
     ops.system("BandGeneral")
-    ops.test("NormDispIncr", 1e-9, 50)
+    ops.test("NormDispIncr", tol, max_iter)
     ops.algorithm("Newton")
-    ops.integrator("LoadControl", d_lambda)
-    ops.analysis("Static")
+    ops.integrator(*integrator)
+    ops.analysis(kind)
+
+
+def _static(ops, d_lambda: float) -> None:
+    _analysis(ops, 1e-9, 50, ("LoadControl", d_lambda), "Static")
 
 
 def _levels_x(ops, n: int) -> np.ndarray:
@@ -448,17 +454,10 @@ class FiberTransient:
 
 
 def _transient_analysis(ops, dt: float) -> None:
-    ops.wipeAnalysis()
-    ops.constraints("Plain")
-    ops.numberer("RCM")
-    ops.system("BandGeneral")
-    ops.test("NormDispIncr", 1e-8, 30)
-    ops.algorithm("Newton")
     # HHT (α = 0.9) damps the spurious high-frequency response of the nearly massless
     # rotations and of the light lower levels, which Newmark's average acceleration keeps
     # at the step's Nyquist frequency (it then aliases into the sampled accelerations)
-    ops.integrator("HHT", 0.9)
-    ops.analysis("Transient")
+    _analysis(ops, 1e-8, 30, ("HHT", 0.9), "Transient")
 
 
 def _probe(ops, column: FiberColumn, geometry: PierGeometry, base_moment: float,
