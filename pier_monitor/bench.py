@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.bags import read_bag
+from pier_monitor.bench_greybox import greybox_suite
 from pier_monitor.bench_heldout import heldout_suite, true_ductility
 from pier_monitor.bench_live import bench_latency
 from pier_monitor.events import identify_window
@@ -770,6 +771,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "rc": _rc_suite,
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
+    "greybox": lambda: greybox_suite(),
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.
