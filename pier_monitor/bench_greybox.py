@@ -171,6 +171,14 @@ def summarize_greybox(runs: list[dict[str, Any]]) -> dict[str, Any]:
                 "wall_s_max": float(np.max([r[who]["wall_s"] for r in sel]))}
         out["contender"]["runs_right_or_suspicious_raw"] = sum(
             r["contender"]["wrong_sections_raw"] == 0 for r in sel)
+        # the family fit the contender started from, alone (where the route fell back to
+        # the field reconstruction it differs from the reference)
+        fam = [float(100.0 * abs(d / t - 1.0)) for r in sel
+               for d, t, y in zip(r["contender"]["family_df"], r["true_df"],
+                                  r["reinforcement_yielded"]) if y]
+        out["contender_start_family_df_err_pct_yielded_mean"] = (float(np.mean(fam)) if fam
+                                                                 else None)
+        out["route_fell_back_to_field"] = sum(r["reference"]["family"] is None for r in sel)
         return out
 
     overall = group(runs)
