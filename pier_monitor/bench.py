@@ -771,7 +771,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "rc": _rc_suite,
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
-    "greybox": lambda: greybox_suite(),
+    "greybox": lambda: greybox_suite(_field_window),
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.

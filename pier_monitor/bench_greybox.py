@@ -24,9 +24,11 @@ runs under the same self-check), and the raw states are scored beside.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import json
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +44,7 @@ from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 
 __all__ = ["GREYBOX_SEEDS", "GREYBOX_COMBOS", "greybox_run", "bench_greybox",
-           "summarize_greybox", "greybox_suite", "TIME_TARGET_S"]
+           "summarize_greybox", "greybox_suite", "write_greybox", "TIME_TARGET_S"]
 
 #: The registration's held-out seeds.
 GREYBOX_SEEDS = tuple(range(300, 310))
@@ -51,6 +53,11 @@ GREYBOX_COMBOS = tuple((h, p, s) for h in ("takeda", "bwbn") for p in ("edefense
                        for s in ("strong", "just_yield"))
 #: The route's target time per event, s (the adoption rule's).
 TIME_TARGET_S = 60.0
+#: The grey-box and the package that sets torch's threads, loaded (torch with them) when
+#: the suite runs, as the front door loads the PINN's trainer: importing the benchmark does
+#: not load torch.
+PINN_PACKAGE = "pier_monitor.pinn"
+GREYBOX_MODULE = "pier_monitor.pinn.greybox"
 
 
 def _wrong(states: list[str], true_df: np.ndarray, yielded: np.ndarray) -> int:
@@ -58,17 +65,20 @@ def _wrong(states: list[str], true_df: np.ndarray, yielded: np.ndarray) -> int:
                    for st, d, y in zip(states, true_df, yielded)))
 
 
-def greybox_run(store: ResultsStore, hyst: str, pier: str, shaking: str, seed: int
-                ) -> dict[str, Any]:
-    """One full-layout RC event: the reference's and the contender's DF and states."""
-    from pier_monitor.bench import _field_window
-    from pier_monitor.pinn import set_threads
-    from pier_monitor.pinn.greybox import fit_greybox
+#: Makes an event's window from its synthetic recording and a name: ``(window, truth, θ)``
+#: (the ``rc`` suite's :func:`pier_monitor.bench._field_window`, passed in by ``bench``).
+WindowMaker = Callable[[Any, str], tuple[Any, Any, Any]]
 
-    set_threads(1)
+
+def greybox_run(store: ResultsStore, hyst: str, pier: str, shaking: str, seed: int,
+                make_window: WindowMaker) -> dict[str, Any]:
+    """One full-layout RC event: the reference's and the contender's DF and states."""
+    pinn = importlib.import_module(PINN_PACKAGE)  # torch with it, on the first event
+    pinn.set_threads(1)
+    fit_greybox = importlib.import_module(GREYBOX_MODULE).fit_greybox
     layout = "full"
     syn = field_case_recording(pier, layout, False, shaking, seed, hysteresis=hyst)
-    window, _, _ = _field_window(syn, f"{pier}/{layout}/{shaking}/{seed}/{hyst}")
+    window, _, _ = make_window(syn, f"{pier}/{layout}/{shaking}/{seed}/{hyst}")
     window = dataclasses.replace(window, event_id=f"gb_{hyst}_{pier}_{layout}_{shaking}_{seed}")
     true_df, yielded = true_ductility(syn.truth.runs[0])
     started = time.perf_counter()
@@ -128,7 +138,7 @@ def greybox_run(store: ResultsStore, hyst: str, pier: str, shaking: str, seed: i
         "device": "cpu"}
 
 
-def bench_greybox(seeds: tuple[int, ...] = GREYBOX_SEEDS,
+def bench_greybox(make_window: WindowMaker, seeds: tuple[int, ...] = GREYBOX_SEEDS,
                   combos: tuple[tuple[str, str, str], ...] = GREYBOX_COMBOS
                   ) -> list[dict[str, Any]]:
     """Every combination of every seed, whole seeds in order."""
@@ -137,7 +147,7 @@ def bench_greybox(seeds: tuple[int, ...] = GREYBOX_SEEDS,
         store = ResultsStore(Path(tmp))
         for seed in seeds:
             for hyst, pier, shaking in combos:
-                out.append(greybox_run(store, hyst, pier, shaking, seed))
+                out.append(greybox_run(store, hyst, pier, shaking, seed, make_window))
     return out
 
 
@@ -208,9 +218,9 @@ def summarize_greybox(runs: list[dict[str, Any]]) -> dict[str, Any]:
         "wall_s": float(sum(r["contender"]["wall_s"] for r in runs)), "device": "cpu"}
 
 
-def greybox_suite() -> list[dict[str, Any]]:
+def greybox_suite(make_window: WindowMaker) -> list[dict[str, Any]]:
     """The ``greybox`` suite: :func:`bench_greybox` and its summary (last entry)."""
-    runs = bench_greybox()
+    runs = bench_greybox(make_window)
     return [*runs, summarize_greybox(runs)]
 
 

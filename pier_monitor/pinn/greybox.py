@@ -169,7 +169,7 @@ def _split(t_len: int, settings: GreyboxSettings, rng: np.random.Generator) -> n
 def _train_section(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, f: np.ndarray,
                    c0: float, noise_var: float, skel: Skeleton, yielded: bool,
                    settings: GreyboxSettings, seed: int) -> GreyboxSection:
-    import torch
+    import torch  # optional heavy dependency
 
     t_len = theta.size
     peak = float(np.max(np.abs(theta)))
