@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.bags import read_bag
+from pier_monitor.bench_greybox import greybox_suite
 from pier_monitor.bench_heldout import heldout_suite, true_ductility
 from pier_monitor.bench_live import bench_latency
 from pier_monitor.bench_fiber import bench_fiber
@@ -858,6 +859,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
     "fiber": lambda: bench_fiber(),
+    "greybox": lambda: greybox_suite(_field_window),
 }
 
 #: Suites run by ``pier-monitor bench`` without options; ``--all`` runs every suite.

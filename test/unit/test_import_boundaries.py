@@ -32,7 +32,7 @@ ROS = ("rclpy", "rcl_interfaces", "builtin_interfaces", "std_msgs", "sensor_msgs
 BAGS = ("rosbags", "mcap", "mcap_ros2")
 TOP = ("pier_monitor.cli", "pier_monitor.pipeline", "pier_monitor.events", "pier_monitor.bench",
        "pier_monitor.bench_live", "pier_monitor.bench_heldout", "pier_monitor.bench_fiber",
-       "pier_monitor.store",
+       "pier_monitor.bench_greybox", "pier_monitor.store",
        "pier_monitor.training_progress")
 
 #: Third-party packages a layer may import directly (by top-level name).
