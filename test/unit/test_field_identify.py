@@ -84,10 +84,11 @@ def test_every_field_member_refits_a_perturbed_window_and_decides_its_own_yield(
     assert np.all(df_true[2:] < 1) and np.all(p_yield[2:] == 0.0)
     assert 0.0 < p_yield[1] < 1.0  # the members' own decisions differ
     # the members differ by the data, not by a start: every k1 moves; that of the yielded
-    # section by less than 2 %, those of springs the data say little about (the elastic
-    # upper ones) as far as their prior about the design values allows
+    # section by a few percent (the fit's residuals, not only the sensors' noise, perturb
+    # the members), those of springs the data say little about (the elastic upper ones) as
+    # far as their prior about the design values allows
     spread = np.abs(ens.params[1:, :, 0] / ens.params[0, :, 0] - 1).max(axis=0)
-    assert np.all(spread > 0) and spread[0] < 0.02 and spread[5] > spread[0]
+    assert np.all(spread > 0) and spread[0] < 0.05 and spread[5] > 5 * spread[0]
     # a member that did not yield has its DF bound (at most 1)
     assert np.all(ens.ductility[~ens.yielded] <= 1.0 + 1e-9)
 
@@ -106,3 +107,24 @@ def test_the_method_choice(accel_case):
         arr[:, -1] = np.nan
     with pytest.raises(IdentificationError, match="top level"):
         identify(dataclasses.replace(window, coverage=cov, a=a, v=v, x=x), IdentifySettings())
+
+
+def test_residual_surrogates_keep_level_spectrum_and_cross_correlation():
+    """The members' residual perturbations: a phase-randomised copy of the fit's residuals has
+    their amplitude spectrum per channel (so their RMS) and their cross-correlation at lag 0,
+    yet is a different series."""
+    from pier_monitor.core.identify.field import _phase_randomised
+
+    rng = np.random.default_rng(3)
+    t = np.arange(2000) * 0.01
+    base = np.sin(2 * np.pi * 0.3 * t) + 0.3 * rng.standard_normal(t.size)
+    res = np.column_stack([base, 0.5 * base + 0.1 * rng.standard_normal(t.size)])
+    res -= res.mean(axis=0)
+    sur = _phase_randomised(np.random.default_rng(0), res)
+    np.testing.assert_allclose(np.abs(np.fft.rfft(sur, axis=0)),
+                               np.abs(np.fft.rfft(res, axis=0)), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(np.sqrt(np.mean(sur ** 2, axis=0)),
+                               np.sqrt(np.mean(res ** 2, axis=0)), rtol=1e-9)
+    np.testing.assert_allclose(np.mean(sur[:, 0] * sur[:, 1]), np.mean(res[:, 0] * res[:, 1]),
+                               rtol=1e-9)
+    assert np.corrcoef(sur[:, 0], res[:, 0])[0, 1] < 0.5
