@@ -81,8 +81,13 @@ METHODS = ("auto", "pinn", "field", "equation_error")
 #: Ensemble members of each route when ``IdentifySettings.members`` is 0 (the default): as
 #: many as keep a default identification within about 30 s per event on one CPU core (the
 #: README's timings).  The PINN's members differ mostly by their start (not an uncertainty
-#: of the data), at minutes each: one.
-DEFAULT_MEMBERS = {"field": 32, "equation_error": 16, "pinn": 1}
+#: of the data), at minutes each: one.  The equation-error route's members (windows with
+#: each level's displacement gain drawn on its own) turned the elastic upper sections of the
+#: E-Defense pier "damaged" (DF 1.24-1.36 against a true 0.64, rc suite, seeds 302-303):
+#: a gain difference between neighbouring levels is a rotation the moments do not explain,
+#: and the members' yield tests took it for yielding.  Until those members are right, a
+#: fully measured window is identified once by default (``--members N`` still asks for N).
+DEFAULT_MEMBERS = {"field": 32, "equation_error": 1, "pinn": 1}
 
 
 @dataclass
