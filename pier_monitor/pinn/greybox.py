@@ -166,6 +166,37 @@ def _split(t_len: int, settings: GreyboxSettings, rng: np.random.Generator) -> n
     return mask
 
 
+def _early_stopped(residual, net, c_s, opt, split, sigma2: float,
+                   settings: GreyboxSettings) -> tuple[int, float]:
+    """Train ``net`` and the scaled damping ``c_s`` on the training samples of ``split``
+    (boolean tensors ``(train, validation)``) until the validation loss stopped falling for
+    ``settings.patience`` epochs; the best network is loaded back.  Returns the epochs run and
+    the best scaled damping."""
+    import torch  # optional heavy dependency
+
+    tr, va = split
+    best, best_state, best_c, since, steps = np.inf, None, float(c_s.detach()), 0, 0
+    for steps in range(1, settings.epochs + 1):
+        opt.zero_grad()
+        loss = torch.mean(residual()[tr] ** 2) / sigma2
+        loss.backward()
+        opt.step()
+        with torch.no_grad():
+            c_s.clamp_(min=0.0)
+            v = float(torch.mean(residual()[va] ** 2)) / sigma2
+        if v < best * (1.0 - 1e-4):
+            best, since = v, 0
+            best_state = {k: t.clone() for k, t in net.state_dict().items()}
+            best_c = float(c_s.detach())
+        else:
+            since += 1
+            if since >= settings.patience:
+                break
+    if best_state is not None:
+        net.load_state_dict(best_state)
+    return steps, best_c
+
+
 def _train_section(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, f: np.ndarray,
                    c0: float, noise_var: float, skel: Skeleton, yielded: bool,
                    settings: GreyboxSettings, seed: int) -> GreyboxSection:
@@ -199,26 +230,7 @@ def _train_section(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, f: n
     def residual() -> torch.Tensor:
         return e - c_s * thd - net(x)[:, 0]
 
-    best, best_state, best_c, since, steps = np.inf, None, float(c_s.detach()), 0, 0
-    for steps in range(1, settings.epochs + 1):
-        opt.zero_grad()
-        r = residual()
-        loss = torch.mean(r[tr] ** 2) / sigma2
-        loss.backward()
-        opt.step()
-        with torch.no_grad():
-            c_s.clamp_(min=0.0)
-            v = float(torch.mean(residual()[va] ** 2)) / sigma2
-        if v < best * (1.0 - 1e-4):
-            best, since = v, 0
-            best_state = {k: t.clone() for k, t in net.state_dict().items()}
-            best_c = float(c_s.detach())
-        else:
-            since += 1
-            if since >= settings.patience:
-                break
-    if best_state is not None:
-        net.load_state_dict(best_state)
+    steps, best_c = _early_stopped(residual, net, c_s, opt, (tr, va), sigma2, settings)
     with torch.no_grad():
         c_s.fill_(best_c)
         r_gb = residual().numpy() * scale
