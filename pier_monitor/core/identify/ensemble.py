@@ -20,12 +20,13 @@ Member 0 is the measured window itself.  Levels that nothing measures stay NaN.
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
 from pier_monitor.core.ingest.window import MeasuredWindow
 
-__all__ = ["member_windows", "correlated_noise"]
+__all__ = ["EnsembleDraws", "member_windows", "correlated_noise"]
 
 
 def correlated_noise(rng: np.random.Generator, t_len: int, sigma: np.ndarray,
@@ -84,3 +85,22 @@ def member_windows(window: MeasuredWindow, members: int, seed: int = 0
     """
     rng = np.random.default_rng(seed)
     return [window] + [_perturbed(window, rng) for _ in range(members - 1)]
+
+
+@dataclass(frozen=True)
+class EnsembleDraws:
+    """The members of an ensemble, as a method found them (M members, N springs).
+
+    Attributes
+    ----------
+    params : ndarray, shape (M, N, 4)
+        ``k1, k2, fy, c`` of each member (SI); ``fy`` of a spring that did not yield is the
+        lower bound, its largest moment.
+    ductility : ndarray, shape (M, N)
+        Ductility factors, at most 1 where the member's spring did not yield.
+    yielded : ndarray of bool, shape (M, N)
+    """
+
+    params: np.ndarray
+    ductility: np.ndarray
+    yielded: np.ndarray

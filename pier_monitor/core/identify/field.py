@@ -45,7 +45,7 @@ from scipy import optimize
 
 from pier_monitor.core.errors import IdentificationError
 from pier_monitor.core.identify.damage import member_ductility
-from pier_monitor.core.identify.ensemble import member_windows
+from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows
 from pier_monitor.core.identify.equation_error import robust_increments
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import SpringParameters
@@ -123,26 +123,20 @@ class FieldSettings:
 
 
 @dataclass(frozen=True)
-class FieldMembers:
-    """An ensemble around a field reconstruction (M members; member 0 the fit itself).
+class FieldMembers(EnsembleDraws):
+    """An ensemble around a field reconstruction (M members; member 0 the fit itself): the
+    members' parameters, yield decisions and ductility factors
+    (:class:`~pier_monitor.core.identify.ensemble.EnsembleDraws`, ``params`` (M, N, 4) SI,
+    ``fy`` of a spring that did not yield its largest moment) and their histories.
 
     Attributes
     ----------
-    params : ndarray, shape (M, N, 4)
-        ``k1, k2, fy, c`` of each member (SI); ``fy`` of a spring that did not yield is the
-        lower bound, its largest moment.
     theta, moment : ndarray, shape (M, T, N)
         Each member's angles (rad) and spring moments (N·m).
-    yielded : ndarray of bool, shape (M, N)
-    ductility : ndarray, shape (M, N)
-        Ductility factors (at most 1 where the member's spring did not yield).
     """
 
-    params: np.ndarray
     theta: np.ndarray
     moment: np.ndarray
-    yielded: np.ndarray
-    ductility: np.ndarray
 
 
 @dataclass(frozen=True)

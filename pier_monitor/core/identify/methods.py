@@ -42,7 +42,7 @@ from pier_monitor.core.identify.damage import (IdentificationResult, build_secti
                                                member_ductility, overall_state, with_family,
                                                with_identifiability,
                                                with_unmeasured_ends)
-from pier_monitor.core.identify.ensemble import member_windows
+from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
 from pier_monitor.core.identify.field import FieldSettings, fit_field
@@ -331,25 +331,6 @@ class IdentificationRun:
 
 
 @dataclass(frozen=True)
-class EnsembleDraws:
-    """The members of an ensemble, as a method found them (M members, N springs).
-
-    Attributes
-    ----------
-    params : ndarray, shape (M, N, 4)
-        ``k1, k2, fy, c`` of each member (SI); ``fy`` of a spring that did not yield is the
-        lower bound, its largest moment.
-    ductility : ndarray, shape (M, N)
-        Ductility factors, at most 1 where the member's spring did not yield.
-    yielded : ndarray of bool, shape (M, N)
-    """
-
-    params: np.ndarray
-    ductility: np.ndarray
-    yielded: np.ndarray
-
-
-@dataclass(frozen=True)
 class MethodOutput:
     """What a method returns to :func:`identify`, which assembles the result.
 
@@ -438,9 +419,7 @@ class FieldMethod:
                         seed=settings.seed)
         draws = member_responses = None
         if fit.members is not None:
-            ens = fit.members
-            draws = EnsembleDraws(params=ens.params, ductility=ens.ductility,
-                                  yielded=ens.yielded)
+            ens = draws = fit.members  # FieldMembers are EnsembleDraws with their histories
             b_inv = np.linalg.inv(angle_matrix(window.geometry.section_heights_m))
             member_responses = MemberResponses(theta=ens.theta, moment=ens.moment,
                                                x=ens.theta @ b_inv.T)
