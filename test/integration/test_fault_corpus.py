@@ -703,7 +703,8 @@ def test_end_to_end_an_offset_change_without_partners_makes_the_event_unreliable
         source, truth_states, tmp_path, capsys, fault):
     """Without partners at its level, the ingest cannot judge an accelerometer's offset: the
     self-check against the identified model finds it, and the event's result is unreliable
-    with the level named; the event before the fault keeps the clean states."""
+    with the level named; the event before the fault keeps the clean states (or is
+    suspicious where the thinner network leaves the ensemble unsure)."""
     rec, timeline = source
     bag = tmp_path / "lone.mcap"
     write_bag(_lone_accelerometer_at_level_2(fault(rec, timeline), timeline), bag,
@@ -713,7 +714,11 @@ def test_end_to_end_an_offset_change_without_partners_makes_the_event_unreliable
     assert "Traceback" not in capsys.readouterr().err
     assert rc == EXIT_UNRELIABLE
     first, second = [json.loads(p.read_text()) for p in sorted(out.glob("*/result.json"))]
-    assert [s["state"] for s in first["sections"]] == truth_states[0]
+    # the event before the fault: the clean states, or "suspicious" where the lone
+    # accelerometer leaves the ensemble unsure (never another confident state)
+    for got, want in zip([s["state"] for s in first["sections"]], truth_states[0],
+                         strict=True):
+        assert got in (want, "suspicious")
     assert second["overall_state"] == "unreliable"
     assert {s["state"] for s in second["sections"]} == {"unreliable"}
     assert any("suspect sensor at level 2" in r for r in second["unreliable_reasons"])
