@@ -32,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pier_monitor.core.errors import InputDataError, PierMonitorError, ReportError
+from pier_monitor.core.errors import (InputDataError, PierMonitorError, ReportError,
+                                     UnsafeNameError)
 from pier_monitor.core.fileio import remove_temporaries
 from pier_monitor.core.identify.damage import IdentificationResult, failed_result
 from pier_monitor.core.ids import EVENT_ID_MAX_LEN, check_id, safe_child
@@ -98,6 +99,15 @@ class ResultsStore:
         check_id("event_id", event_id, max_len=EVENT_ID_MAX_LEN)
         safe_child(self.root, event_id)
         return self.root / event_id
+
+    def _result_name(self, result: IdentificationResult) -> str:
+        """How a warning names ``result``'s file: its path in the store, through
+        :meth:`event_dir`; a result whose event id (read from the file's content) is no safe
+        id is named by that id, never by a path built from it."""
+        try:
+            return str(self.event_dir(result.event_id) / RESULT_JSON)
+        except UnsafeNameError:
+            return f"result of event {result.event_id!r}"
 
     def window_file(self, event_id: str) -> Path:
         """Where the window of an event is stored."""
@@ -216,8 +226,8 @@ class ResultsStore:
             if tops.shape == z[1:].shape and np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
                 return r
             log.warning("%s: not a baseline of event %s: its sections end at %s m, the "
-                        "pier's now at %s m (the geometry changed)", self.root / r.event_id /
-                        RESULT_JSON, window.event_id, tops.tolist(), z[1:].tolist())
+                        "pier's now at %s m (the geometry changed)", self._result_name(r),
+                        window.event_id, tops.tolist(), z[1:].tolist())
         return None
 
     def is_baseline(self, result: IdentificationResult) -> bool:
@@ -228,7 +238,7 @@ class ResultsStore:
         k1 = np.array([s.k1 for s in result.sections], dtype=float)
         if result.reliable and not np.all(np.isfinite(k1) & (k1 > 0)):
             log.warning("%s: not a baseline: its k1 %s are not all positive finite values",
-                        self.root / result.event_id / RESULT_JSON, k1.tolist())
+                        self._result_name(result), k1.tolist())
             return False
         return result.reliable
 

@@ -170,3 +170,19 @@ def test_the_fleet_waits_for_the_baseline_that_identify_would_choose_after_an_un
     schedule.settle("e2", done)
     assert [x.event_id for x in schedule.ready()] == ["e3"]
     assert store.baseline_for(w["e3"]).event_id == "e2"
+
+
+def test_a_result_that_is_no_baseline_is_named_by_its_file_never_by_a_path_from_its_data(
+        base_window, tmp_path, caplog):
+    """The warning names the result's file in the store; an event id read from a file's
+    content that is no safe id is named as it is, and no path is built from it."""
+    store = ResultsStore(tmp_path)
+    caplog.set_level("WARNING", logger="pier_monitor.store")
+    good = result(window(base_window, "run1", 1.0), math.nan)
+    assert not store.is_baseline(good)
+    assert f"{tmp_path / 'run1' / 'result.json'}: not a baseline" in caplog.text
+    caplog.clear()
+    bad = result(window(base_window, "../../etc", 1.0), math.nan)
+    assert not store.is_baseline(bad)
+    assert "result of event '../../etc': not a baseline" in caplog.text
+    assert "etc/result.json" not in caplog.text
