@@ -19,10 +19,9 @@ import numpy as np
 
 from pier_monitor.bags import read_bag
 from pier_monitor.bench_greybox import greybox_suite
-from pier_monitor.bench_heldout import heldout_suite, true_ductility
+from pier_monitor.bench_heldout import heldout_suite, identify_default, true_ductility
 from pier_monitor.bench_live import bench_latency
 from pier_monitor.bench_fiber import bench_fiber
-from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
 from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
@@ -703,9 +702,7 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
     window, truth, _ = _field_window(syn, name)
     window = dataclasses.replace(window, event_id=f"rc_{hyst}_{pier}_{layout}_{shaking}_{seed}")
     true_df, yielded = true_ductility(syn.truth.runs[0])
-    started = time.perf_counter()
-    outcome = identify_window(window, IdentifySettings(seed=seed), store, figures=False)
-    wall = time.perf_counter() - started
+    outcome, wall = identify_default(window, store, seed)
     result = outcome.result
     states = [s.state for s in result.sections]
     df = np.array([s.ductility_factor for s in result.sections])
@@ -795,10 +792,8 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
                 window = dataclasses.replace(
                     window, design=design,
                     event_id=f"rcseq_{hysteresis}_{pier}_{layout}_{seed}_{i + 1}_{run.name}")
-                started = time.perf_counter()
-                result = identify_window(window, IdentifySettings(seed=seed), store,
-                                         figures=False).result
-                wall = time.perf_counter() - started
+                outcome, wall = identify_default(window, store, seed)
+                result = outcome.result
                 truth = run.rc
                 events.append({
                     "case": f"rcseq_{hysteresis}_{pier}_{layout}", "seed": seed,

@@ -43,8 +43,8 @@ from typing import Any
 
 import numpy as np
 
+from pier_monitor.bench_heldout import identify_default
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.core.ingest import ingest_recording
 from pier_monitor.core.ingest.recording import NS_PER_S
 from pier_monitor.core.model.config import SpringParameters, load_config
@@ -54,7 +54,6 @@ from pier_monitor.core.synthetic.fiber import (FiberColumn, fiber_principal_resp
                                                fiber_truth, fiber_yield)
 from pier_monitor.core.synthetic.field import field_recording
 from pier_monitor.core.synthetic.shaking_table import RunSpec, Scenario
-from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 
 __all__ = ["FIBER_PGA_MPS2", "FIBER_PGA_TRIALS", "FIBER_SEED", "fiber_scenario",
@@ -154,10 +153,7 @@ def bench_fiber(layouts: tuple[str, ...] = _LAYOUTS, seed: int = FIBER_SEED,
             for k, (window, truth) in enumerate(zip(windows, truth_runs)):
                 window = dataclasses.replace(window, design=design,
                                              event_id=f"fiber_{layout}_shaking{k + 1}")
-                started = time.perf_counter()
-                outcome = identify_window(window, IdentifySettings(seed=seed), store,
-                                          figures=False)
-                wall = time.perf_counter() - started
+                outcome, wall = identify_default(window, store, seed)
                 out.append(_score_event(layout, k, outcome.result, truth, wall, record_s))
     summary = {
         "case": "fiber_summary", "seed": seed, "pga_mps2": list(pga_mps2),

@@ -34,14 +34,12 @@ from typing import Any
 
 import numpy as np
 
-from pier_monitor.bench_heldout import true_ductility
+from pier_monitor.bench_heldout import identify_default, true_ductility
 from pier_monitor.core.errors import SolverError
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import fit_families, moment_noise_variance
-from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.core.model.link_model import angle_matrix
 from pier_monitor.core.synthetic.field import field_case_recording
-from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 
 __all__ = ["GREYBOX_SEEDS", "GREYBOX_COMBOS", "greybox_run", "bench_greybox",
@@ -88,9 +86,7 @@ def greybox_run(store: ResultsStore, hyst: str, pier: str, shaking: str, seed: i
     window, _, _ = make_window(syn, f"{pier}/{layout}/{shaking}/{seed}/{hyst}")
     window = dataclasses.replace(window, event_id=f"gb_{hyst}_{pier}_{layout}_{shaking}_{seed}")
     true_df, yielded = true_ductility(syn.truth.runs[0])
-    started = time.perf_counter()
-    outcome = identify_window(window, IdentifySettings(seed=seed), store, figures=False)
-    ref_wall = time.perf_counter() - started
+    outcome, ref_wall = identify_default(window, store, seed)
     result = outcome.result
     ref_states = [s.state for s in result.sections]
     ref_df = np.array([s.ductility_factor for s in result.sections])

@@ -45,7 +45,7 @@ from pier_monitor.core.synthetic.shaking_table import Scenario
 from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 
-__all__ = ["true_ductility", "HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
+__all__ = ["true_ductility", "identify_default", "HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
            "summarize_heldout"]
 
 #: Seeds of the suite; nothing in the product was chosen on them.
@@ -76,6 +76,15 @@ def true_ductility(run_truth) -> tuple[np.ndarray, np.ndarray]:
                 np.asarray(run_truth.rc.yielded, dtype=bool))
     true_df = np.asarray(run_truth.ductility_factors, dtype=float)
     return true_df, true_df > 1.0
+
+
+def identify_default(window, store: ResultsStore, seed: int):
+    """``window`` identified as the product does (:func:`~pier_monitor.events.identify_window`,
+    default settings of ``seed``, no figures) into ``store``: ``(outcome, wall_s)``, the
+    wall time of the identification and its self-check, s."""
+    started = time.perf_counter()
+    outcome = identify_window(window, IdentifySettings(seed=seed), store, figures=False)
+    return outcome, time.perf_counter() - started
 
 
 def heldout_case(pier: str, layout: str, seed: int, hysteresis: str = "bilinear"):
@@ -156,9 +165,7 @@ def _score_section(sec, i: int, truth: SpringParameters, true_df: float, yielded
 def _heldout_run(store: ResultsStore, pier: str, layout: str, seed: int,
                  hysteresis: str) -> dict[str, Any]:
     window, truth, true_df, yielded, info = heldout_case(pier, layout, seed, hysteresis)
-    started = time.perf_counter()
-    outcome = identify_window(window, IdentifySettings(seed=seed), store, figures=False)
-    wall = time.perf_counter() - started
+    outcome, wall = identify_default(window, store, seed)
     result = outcome.result
     unreliable = result.overall_state == "unreliable"
     sections = [_score_section(sec, i, truth, true_df[i], yielded[i], hysteresis == "bilinear")
