@@ -21,6 +21,7 @@ when there are none):
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +32,7 @@ from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import natural_periods
 
-__all__ = ["CheckLimits", "check_identification"]
+__all__ = ["CheckLimits", "check_identification", "level_misfits"]
 
 
 @dataclass(frozen=True)
@@ -149,6 +150,24 @@ def _parameter_reasons(params: SpringParameters, window: MeasuredWindow,
     return reasons
 
 
+def level_misfits(measured: np.ndarray, reproduced: np.ndarray, sigma: np.ndarray,
+                  covered: np.ndarray) -> Iterator[tuple[int, np.ndarray, np.ndarray, float,
+                                                         float, float]]:
+    """Per level that ``covered`` (N,) marks and whose measurement is not all zero:
+    ``(level, measured, residual, scale, misfit, noise)`` — the 0-based level, its measured
+    history (T,), the residual reproduced − measured (T,), the measurement's RMS, the RMS of
+    the residual relative to it, and the noise standard deviation ``sigma[level]`` (0 where
+    unknown).  ``measured`` and ``reproduced`` are (T, N) in the quantity's SI unit."""
+    for lv in np.flatnonzero(covered):
+        meas = measured[:, lv]
+        scale = float(np.sqrt(np.mean(meas ** 2)))
+        if scale == 0:
+            continue
+        res = reproduced[:, lv] - meas
+        noise = float(sigma[lv]) if np.isfinite(sigma[lv]) else 0.0
+        yield int(lv), meas, res, scale, float(np.sqrt(np.mean(res ** 2))) / scale, noise
+
+
 def _misfit_reasons(reproduced: Reproduced, window: MeasuredWindow,
                     lim: CheckLimits) -> list[str]:
     reasons = []
@@ -159,16 +178,9 @@ def _misfit_reasons(reproduced: Reproduced, window: MeasuredWindow,
                 "x": window.coverage.displacement}
     names = {"a": "acceleration", "v": "velocity", "x": "displacement"}
     for q, covered in measured.items():
-        meas = getattr(window, q)
-        rep = np.asarray(getattr(reproduced, q))
-        sigma = getattr(window.noise, q)
-        for lv in np.flatnonzero(covered):
-            m = meas[:, lv]
-            scale = float(np.sqrt(np.mean(m ** 2)))
-            if scale == 0:
-                continue
-            misfit = float(np.sqrt(np.mean((rep[:, lv] - m) ** 2))) / scale
-            noise = float(sigma[lv]) if np.isfinite(sigma[lv]) else 0.0
+        for lv, _, _, scale, misfit, noise in level_misfits(
+                getattr(window, q), np.asarray(getattr(reproduced, q)),
+                getattr(window.noise, q), covered):
             allowed = lim.misfit_rel + lim.misfit_noise * noise / scale
             if not math.isfinite(misfit) or misfit > allowed:
                 reasons.append(f"level {lv + 1}: the reproduced {names[q]} departs from the "

@@ -69,6 +69,7 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError, SolverError
+from pier_monitor.core.identify.checks import level_misfits
 from pier_monitor.core.identify.equation_error import inertia_moments
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import SpringParameters
@@ -318,17 +319,8 @@ def model_misfit(window: MeasuredWindow, params: SpringParameters,
     gain = float(window.noise.gain_rel) if math.isfinite(window.noise.gain_rel) else 0.0
     entries = []
     for q, covered in (("a", window.coverage.acceleration), ("x", window.coverage.displacement)):
-        meas_all = getattr(window, q)
-        sim_all = getattr(sim, q)
-        sigma_all = getattr(window.noise, q)
-        for lv in np.flatnonzero(covered):
-            meas = meas_all[:, lv]
-            scale = float(np.sqrt(np.mean(meas ** 2)))
-            if scale == 0:
-                continue
-            res = sim_all[:, lv] - meas
-            misfit = float(np.sqrt(np.mean(res ** 2))) / scale
-            sigma = float(sigma_all[lv]) if math.isfinite(sigma_all[lv]) else 0.0
+        for lv, meas, res, scale, misfit, sigma in level_misfits(
+                getattr(window, q), getattr(sim, q), getattr(window.noise, q), covered):
             noise_rel = math.hypot(sigma / scale, gain)
             share = _systematic_share(res, meas, window.dt) if math.isfinite(misfit) else 1.0
             offset = (_moving_mean_rms(res, int(round(lim.offset_span_s / window.dt))) / scale
