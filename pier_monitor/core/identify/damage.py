@@ -78,7 +78,6 @@ __all__ = [
     "NO_INTERVAL_FAMILY",
     "poorly_identified",
     "with_identifiability",
-    "with_unmeasured_ends",
     "capped_ductility",
     "member_ductility",
     "failed_result",
@@ -711,7 +710,7 @@ def build_sections(geometry: PierGeometry, params: SpringParameters, theta: np.n
     return tuple(s.rebased(float(b), float(d), "baseline") for s, b, d in zip(out, base, change))
 
 
-def poorly_identified(section: SectionResult) -> tuple[str, ...]:
+def poorly_identified(section: SectionResult, ends_measured: bool = True) -> tuple[str, ...]:
     """The quantities of ``section`` whose 90 % interval is wider than
     :data:`IDENTIFIABILITY_LIMITS` allows, in the order ``k1, k2, fy, c, DF``.
 
@@ -719,6 +718,15 @@ def poorly_identified(section: SectionResult) -> tuple[str, ...]:
     reported as not identifiable, no number); there an interval that fewer than two members
     made (the others did not yield) is poorly identified too.  Without an ensemble
     (``uncertainty`` None or one member) nothing is flagged: there is no interval.
+
+    ``k1`` is poorly identified whatever its interval where a level at either end of the
+    section has no sensor (``ends_measured`` False).  The stiffnesses of neighbouring
+    sections between unmeasured levels trade off against each other and against the masses
+    interpolated at those levels, a model error the members cannot see: on the coverage
+    benchmark (E-Defense pier, "sparse" layout, accelerometers at levels 2 and 4 only,
+    held-out seeds 200-204) sections 1-3 were off by 3-7 %, 11-26 % and 5-12 % alike in
+    every seed, with their intervals' k1 coverage 65 % (strong) and 70 % (just_yield) even
+    with the residuals in the members' perturbations.
     """
     u = section.uncertainty
     if u is None or u.members < 2:
@@ -729,39 +737,24 @@ def poorly_identified(section: SectionResult) -> tuple[str, ...]:
         if name in ("k2", "fy") and not section.yielded:
             continue
         width = spreads[name].relative_half_width()
-        if not width <= limit:  # NaN (an interval of one member or none) is no interval
-            out.append(name)
+        if not width <= limit or (name == "k1" and not ends_measured):
+            out.append(name)  # NaN (an interval of one member or none) is no interval
     return tuple(out)
 
 
-def with_identifiability(sections: tuple[SectionResult, ...]) -> tuple[SectionResult, ...]:
-    """The sections with their :attr:`SectionResult.poorly_identified` (states unchanged)."""
-    return tuple(replace(s, poorly_identified=poorly_identified(s)) for s in sections)
+def with_identifiability(sections: tuple[SectionResult, ...],
+                         measured: np.ndarray | None = None) -> tuple[SectionResult, ...]:
+    """The sections with their :attr:`SectionResult.poorly_identified` (states unchanged).
 
-
-def with_unmeasured_ends(sections: tuple[SectionResult, ...], measured: np.ndarray
-                         ) -> tuple[SectionResult, ...]:
-    """The sections with ``k1`` also "poorly identified" where a level at either end has no
-    sensor (``measured`` (N,): level ``i + 1`` has an accelerometer or a displacement
-    sensor; the foundation always counts as measured), wherever the section has an interval.
-
-    The stiffnesses of neighbouring sections between unmeasured levels trade off against
-    each other and against the masses interpolated at those levels, a model error the
-    members cannot see: on the coverage benchmark (E-Defense pier, "sparse" layout,
-    accelerometers at levels 2 and 4 only, held-out seeds 200-204) sections 1-3 were off by
-    3-7 %, 11-26 % and 5-12 % alike in every seed, with their intervals' k1 coverage 65 %
-    (strong) and 70 % (just_yield) even with the residuals in the members' perturbations.
-    States are unchanged (they never rest on a poorly identified quantity alone)."""
-    measured = np.asarray(measured, dtype=bool)
-    out = []
-    for i, s in enumerate(sections):
-        ends = (True if i == 0 else bool(measured[i - 1])) and bool(measured[i])
-        u = s.uncertainty
-        if ends or u is None or u.members < 2 or "k1" in s.poorly_identified:
-            out.append(s)
-            continue
-        out.append(replace(s, poorly_identified=("k1",) + tuple(s.poorly_identified)))
-    return tuple(out)
+    ``measured`` (N,), when given: whether level ``i + 1`` has an accelerometer or a
+    displacement sensor (the foundation always counts as measured); a section with an
+    unmeasured end has its ``k1`` poorly identified (:func:`poorly_identified`)."""
+    if measured is None:
+        return tuple(replace(s, poorly_identified=poorly_identified(s)) for s in sections)
+    ends = np.asarray(measured, dtype=bool)
+    ends = ends & np.concatenate([[True], ends[:-1]])
+    return tuple(replace(s, poorly_identified=poorly_identified(s, bool(e)))
+                 for s, e in zip(sections, ends, strict=True))
 
 
 def with_family(sections: tuple[SectionResult, ...], family: Any) -> tuple[SectionResult, ...]:

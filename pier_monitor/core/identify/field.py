@@ -611,7 +611,7 @@ def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _Fie
     layout's k1 falls short: its sections 1-3, with an unmeasured level at an end, are off
     alike in every seed (a trade-off with the masses interpolated there that no member
     sees), so their k1 is flagged poorly identified
-    (:func:`~pier_monitor.core.identify.damage.with_unmeasured_ends`).  The yielded DF on
+    (:func:`~pier_monitor.core.identify.damage.with_identifiability`).  The yielded DF on
     accel, just_yield (3 of 5) rests on one yielded section per seed.
     k1 of the sections not flagged poorly identified by their width, held-out 200-202:
     100 / 100 / 80 / 100 % (before: 22 / 33 / 67 / 100 %).  Every state as before (held-out: all right but one

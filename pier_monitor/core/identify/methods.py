@@ -40,8 +40,7 @@ from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
                                                member_ductility, overall_state, with_family,
-                                               with_identifiability,
-                                               with_unmeasured_ends)
+                                               with_identifiability)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
@@ -660,10 +659,10 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
                               uncertainty=uncertainty, yield_angles=yield_angles)
     if out.family is not None:
         sections = with_family(sections, out.family)
-    sections = with_identifiability(sections)  # shown with the intervals; no state changes
-    if window.coverage is not None:  # k1 between unmeasured levels: a model error
-        sections = with_unmeasured_ends(
-            sections, window.coverage.acceleration | window.coverage.displacement)
+    # shown with the intervals, no state changes; k1 between unmeasured levels: a model error
+    sections = with_identifiability(
+        sections, None if window.coverage is None
+        else window.coverage.acceleration | window.coverage.displacement)
     result = IdentificationResult(
         pier_id=window.pier_id, event_id=window.event_id, sections=sections,
         overall_state=overall_state(sections), window_start_s=float(window.t[0]),
