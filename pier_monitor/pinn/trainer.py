@@ -295,46 +295,59 @@ def train_pinn(window: MeasuredWindow, settings: IdentifySettings,
     torch.manual_seed(settings.seed)
     np.random.seed(settings.seed)
     pinn = settings.pinn_settings
-    if pinn.init == "equation_error":
-        fit = fit_equation_error(window.geometry, window.x, window.v, window.a, window.ag,
-                                 window.design, moments=window.moments,
-                                 yield_score=settings.equation_error_settings.yield_score)
-        init, yielded0 = fit.params, fit.yielded
-    else:
-        init, yielded0 = window.design, np.ones(window.n_levels, dtype=bool)
     windows = member_windows(window, settings.members, seed=settings.seed)
+    inits, yielded0 = _member_starts(windows, settings)
+    init = inits[0]
     problem = _PinnProblem(windows, settings, device, init)
     n_fourier = pinn.n_fourier or int(min(32, max(8, problem.idx0.size // 4)))
     net = MemberNet(problem.members, 8 * window.n_levels, pinn.arch, pinn.hidden,
                     pinn.layers, n_fourier).to(device=device)
-    ref, free = _start(problem, init, yielded0)
+    ref, free = _start(problem, inits, yielded0)
     logp = torch.zeros_like(ref, requires_grad=True)
     _project(logp, ref, problem.f_cap)
     epoch, loss_val, history = _train(problem, net, logp, ref, free, callback, t_start)
     return _reproduce(problem, net, logp, ref, init, yielded0, epoch, loss_val, history)
 
 
-def _start(problem: _PinnProblem, init: SpringParameters, yielded0: np.ndarray
+def _member_starts(windows: list[MeasuredWindow], settings: IdentifySettings
+                   ) -> tuple[list[SpringParameters], np.ndarray]:
+    """Every member's start and yield decision: the equation-error fit of its own window
+    (randomise-then-optimise: the members differ by their data alone), or for
+    ``init="design"`` the design values, every spring free to yield.
+
+    Returns the starts (M of them) and the yield decisions, (M, N) bool.
+    """
+    if settings.pinn_settings.init != "equation_error":
+        design = windows[0].design
+        return ([design] * len(windows),
+                np.ones((len(windows), windows[0].n_levels), dtype=bool))
+    inits, yielded = [], []
+    for w in windows:
+        fit = fit_equation_error(w.geometry, w.x, w.v, w.a, w.ag, w.design, moments=w.moments,
+                                 yield_score=settings.equation_error_settings.yield_score)
+        inits.append(fit.params)
+        yielded.append(fit.yielded)
+    return inits, np.stack(yielded)
+
+
+def _start(problem: _PinnProblem, inits: list[SpringParameters], yielded0: np.ndarray
            ) -> tuple[torch.Tensor, torch.Tensor]:
     """Every member's starting parameters ``ref`` (M, 4, N) and the mask of the free ones.
 
-    A spring that did not yield is held elastic: its ``fy`` goes to the cap, far from the
+    Member ``m`` starts from ``inits[m]``, its own window's fit (the start is no source of
+    spread: no scatter is added).  A spring that member did not find yielded
+    (``yielded0[m]``, (M, N)) is held elastic: its ``fy`` goes to the cap, far from the
     moments, so the clip of the hysteresis rule never acts on noise at the peaks (a held
     ``fy`` equal to the largest moment would clip there and drag ``k1``); its ``k2`` and
-    ``fy`` are held.  Member 0 starts from the start, the others a multi-start spread around it.
+    ``fy`` are held.
     """
-    settings, device, n = problem.settings, problem.device, problem.n
-    start = torch.as_tensor(np.stack([init.k1, init.k2, init.fy, init.c]), dtype=torch.float64,
-                            device=device)
+    device = problem.device
+    start = torch.as_tensor(np.stack([np.stack([p.k1, p.k2, p.fy, p.c]) for p in inits]),
+                            dtype=torch.float64, device=device)  # (M, 4, N)
     start = torch.where(start > 0, start, torch.ones_like(start))
-    held = torch.as_tensor(~yielded0, device=device)
-    start[2] = torch.where(held, problem.f_cap, start[2])
-    spread = torch.ones(problem.members, 4, n, dtype=torch.float64, device=device)
-    if problem.members > 1:
-        gen = torch.Generator(device="cpu").manual_seed(settings.seed + 1)
-        draw = torch.randn(problem.members - 1, 4, n, generator=gen, dtype=torch.float64)
-        spread[1:] = torch.exp(problem.pinn.member_start_sd * draw).to(device)
-    ref = start * spread
+    held = torch.as_tensor(~yielded0, device=device)  # (M, N)
+    start[:, 2] = torch.where(held, problem.f_cap, start[:, 2])
+    ref = start
     free = torch.ones_like(ref)
     free[:, 1] = torch.where(held, 0.0, 1.0)
     free[:, 2] = torch.where(held, 0.0, 1.0)
@@ -433,7 +446,7 @@ def _reproduce(problem: _PinnProblem, net: MemberNet, logp: torch.Tensor, ref: t
         rep = {q: take(q) for q in ("a", "v", "x", "f")}  # (M, T, N)
         member_params = np.stack([t.cpu().numpy() for t in (k1, k2, fy, c)], axis=-1)
     theta = rep["x"] @ angle_matrix(window.geometry.section_heights_m).T  # (M, T, N)
-    yielded = np.array([[yielded0[i] and yield_test(
+    yielded = np.array([[yielded0[m, i] and yield_test(
         theta[m, :, i], rep["f"][m, :, i], member_params[m, i, 0], member_params[m, i, 1],
         member_params[m, i, 2], settings.equation_error_settings.yield_score)[0]
         for i in range(n)]

@@ -126,8 +126,6 @@ class PinnSettings:
         parameters have stopped moving (the PINN moves its start by thousandths of a per
         cent on the benchmark cases; a tighter ``tol`` ran to 3000 epochs on field data,
         90 s and more, without changing the answer).
-    member_start_sd : float
-        Relative spread of the PINN members' starting parameters (log-normal).
     """
 
     pair_stride: int = 1
@@ -149,7 +147,6 @@ class PinnSettings:
     init: str = "equation_error"
     patience: int = 100
     tol: float = 1e-3
-    member_start_sd: float = 0.02
 
     def validate(self, members: int) -> None:
         """Raise :class:`InputDataError` naming the first bad setting (``members``: those of
@@ -170,7 +167,6 @@ class PinnSettings:
             ("paper_lr2", self.paper_lr2 > 0),
             ("init", self.init in ("equation_error", "design")),
             ("patience", self.patience >= 1), ("tol", self.tol > 0),
-            ("member_start_sd", self.member_start_sd >= 0),
             ("param_rule", self.param_rule == "adam" or members <= 1),
         ])
 
@@ -225,10 +221,10 @@ class IdentifySettings:
         equation-error: randomise-then-optimise, member 0 fits the measured window, the
         others copies perturbed as the sensors allow
         (:func:`~pier_monitor.core.identify.ensemble.member_windows`: noise, drift, gains),
-        each with its own yield decision; the start is no source of spread.  PINN: member 0
-        trains on the measured window from the start; the others on such perturbed copies,
-        each from the start scattered by ``member_start_sd`` (a multi-start): its spread is
-        mostly that start scatter, not an uncertainty of the data, and its default stays 1.
+        each with its own yield decision; the start is no source of spread.  PINN: member ``m``
+        trains on the window of member ``m`` (the measured one, or such a perturbed copy)
+        from the equation-error fit of that window, with that fit's yield decision: the
+        members differ by their data alone.
     seed : int
     device : {"auto", "cpu", "cuda"}
         Where the PINN trains; the numpy methods never resolve it.
