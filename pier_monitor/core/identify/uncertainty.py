@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.fileio import nan_if_none
+from pier_monitor.core.fileio import finite_or_none, nan_if_none
 
 from .states import DamageState, member_states
 
@@ -149,10 +149,11 @@ class SectionUncertainty:
         return DamageState(int(np.flatnonzero(p == p.max())[-1]))
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain form for JSON (spreads as dicts, ``p_state`` as a list)."""
+        """Plain form for strict JSON (spreads as dicts, ``p_state`` as a list, None where a
+        value is not finite: the ``k2``/``fy`` spread of a spring no member found yielded)."""
         d = asdict(self)
         d["p_state"] = list(self.p_state)
-        return d
+        return finite_or_none(d)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SectionUncertainty:
