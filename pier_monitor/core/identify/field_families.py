@@ -37,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize
 
+from pier_monitor.core._blas import single_blas_thread
 from pier_monitor.core._jit import jit
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.equation_error import SpringFit
@@ -259,6 +260,7 @@ def _equation_error_start(pb: _FieldProblem, tf: _TakedaField, fit: FieldFit,
     return q
 
 
+@single_blas_thread
 def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                        settings: FieldSettings | None = None
                        ) -> tuple[FamilyChoice, np.ndarray, np.ndarray] | None:
