@@ -339,10 +339,11 @@ class _JointResiduals:
     """The joint fit's residuals of ``z`` (the parameters (N, 5) raveled, then the gains),
     with the last point evaluated in full remembered: a point of the finite-difference
     Jacobian that moves one parameter of one spring from it (:meth:`map`, the ``workers``
-    of :func:`scipy.optimize.least_squares`) integrates that spring alone.  The other
-    springs' angles and the moments are the very numbers a full evaluation computes (each
-    spring is driven by its own moment), so the Jacobian is the same, for one integration
-    per column instead of N."""
+    of :func:`scipy.optimize.least_squares`) integrates that spring alone, one that moves a
+    gain the springs whose moments it changes (those below its level).  The other springs'
+    angles are the very numbers a full evaluation computes (each spring is driven by its
+    own moment), so the Jacobian is the same, for about one integration per column instead
+    of N."""
 
     def __init__(self, pb: _FieldProblem) -> None:
         self.pb = pb
@@ -365,12 +366,17 @@ class _JointResiduals:
             return None
         z0, g, theta0 = self._last
         moved = np.flatnonzero(z != z0)
-        if moved.size != 1 or moved[0] >= _COLUMNS * self.pb.n:
+        if moved.size != 1:
             return None
-        i = int(moved[0]) // _COLUMNS
         p, eps = self._split(z)
+        if moved[0] < _COLUMNS * self.pb.n:
+            springs = [int(moved[0]) // _COLUMNS]
+        else:
+            g = self.pb.moments(eps)
+            springs = [int(i) for i in np.flatnonzero(~np.all(g == self._last[1], axis=0))]
         theta = theta0.copy()
-        theta[:, i] = self.pb.angles(p, g, springs=[i])[0][:, i]
+        if springs:
+            theta[:, springs] = self.pb.angles(p, g, springs=springs)[0][:, springs]
         return self.pb.residual(p, eps, theta)
 
     def map(self, fun: Callable[[np.ndarray], np.ndarray], points) -> list[np.ndarray]:

@@ -216,6 +216,59 @@ class _TakedaField:
         return float(np.sum(r[:self.n_data] ** 2))
 
 
+class _HeldResiduals:
+    """Residuals of the yield test: spring ``i`` held below yield (its ``θy`` at ``theta_p``)
+    and the ``free`` springs refitted from ``x`` (their parameters raveled), the others at
+    ``q``, the gains at ``eps``; ``g``, ``theta``, ``moment``: the fit's moments and
+    histories.  The last point evaluated in full is
+    remembered: a point of the finite-difference Jacobian that moves one parameter of one
+    free spring from it (:meth:`map`, the ``workers`` of
+    :func:`scipy.optimize.least_squares`) integrates that spring alone, the other free
+    springs' angles being the very numbers a full evaluation computes."""
+
+    def __init__(self, tf: _TakedaField, q: np.ndarray, eps: np.ndarray, i: int,
+                 free: list[int], g: np.ndarray, theta: np.ndarray, moment: np.ndarray,
+                 theta_p: float) -> None:
+        self.tf, self.q, self.eps, self.i, self.free, self.g = tf, q, eps, i, free, g
+        self.theta, self.moment, self.theta_p = theta, moment, theta_p
+        self._last: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def _params(self, x: np.ndarray) -> np.ndarray:
+        tf, i = self.tf, self.i
+        qq = self.q.copy()
+        qq[self.free] = x.reshape(len(self.free), _NT)
+        qq[i, 0] = np.log(tf.f_ref[i] * np.exp(qq[i, 2]) / (self.theta_p * tf.k_ref[i]))
+        return qq
+
+    def _residual(self, qq: np.ndarray, th: np.ndarray) -> np.ndarray:
+        if not np.all(np.isfinite(th)):
+            return np.full(self.tf.n_data + self.tf.pb.n + self.eps.size, 1e6)
+        return self.tf.residual(qq, self.eps, th)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        qq = self._params(x)
+        th, mo = self.tf.angles(qq, self.g, springs=self.free, theta=self.theta,
+                                moment=self.moment)
+        self._last = (np.array(x, dtype=float), th, mo)
+        return self._residual(qq, th)
+
+    def map(self, fun, points) -> list[np.ndarray]:
+        """``[fun(x) for x in points]``, a point that moves one spring as above."""
+        out = []
+        for x in points:
+            qq = self._params(x)
+            moved = (np.flatnonzero(x != self._last[0]) if self._last is not None
+                     and self._last[0].shape == x.shape else np.zeros(0, dtype=int))
+            if moved.size == 1:
+                th = self.tf.angles(qq, self.g, springs=[self.free[int(moved[0]) // _NT]],
+                                    theta=self._last[1], moment=self._last[2])[0]
+            else:  # in full, the last point kept
+                th = self.tf.angles(qq, self.g, springs=self.free, theta=self.theta,
+                                    moment=self.moment)[0]
+            out.append(self._residual(qq, th))
+        return out
+
+
 def _starts(n: int, k_scale: np.ndarray, c_log: np.ndarray) -> list[np.ndarray]:
     out = []
     for qy in (1.0, 0.6):
@@ -348,7 +401,14 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                 r = (tf.residual(qq, eps, th) if np.all(np.isfinite(th))
                      else np.full(r0.size, 1e6))
             else:
-                r = res_joint(zz)
+                # a gain moves the moments of the springs below its level only: the others'
+                # angles are those of th0 (res_joint's numbers, one integration per moved spring)
+                qq, eps_c = unpack(zz)
+                g = pb.moments(eps_c)
+                moved = np.flatnonzero(~np.all(g == g0, axis=0))
+                th = tf.angles(qq, g, springs=moved, theta=th0, moment=mo0)[0]
+                r = (tf.residual(qq, eps_c, th) if np.all(np.isfinite(th))
+                     else np.full(tf.n_data + n + n_eps, 1e6))
             jac[:, col] = (r - r0) / h
         return jac
 
@@ -377,18 +437,11 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         free = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
         cols = np.concatenate([np.arange(j * _NT, (j + 1) * _NT) for j in free])
 
-        def res_held(x: np.ndarray, i: int = i, free: list[int] = free) -> np.ndarray:
-            qq = q.copy()
-            qq[free] = x.reshape(len(free), _NT)
-            qq[i, 0] = np.log(tf.f_ref[i] * np.exp(qq[i, 2]) / (1.05 * peak[i] * tf.k_ref[i]))
-            th = tf.angles(qq, g, springs=free, theta=theta, moment=moment)[0]
-            if not np.all(np.isfinite(th)):
-                return np.full(tf.n_data + n + n_eps, 1e6)
-            return tf.residual(qq, eps, th)
-
+        res_held = _HeldResiduals(tf, q, eps, i, free, g, theta, moment, 1.05 * peak[i])
         x0 = np.clip(sol.x[cols], lo_f[cols] + 1e-9, hi_f[cols] - 1e-9)
         held = optimize.least_squares(res_held, x0, bounds=(lo_f[cols], hi_f[cols]),
-                                      x_scale=scales[cols], max_nfev=100, tr_solver="lsmr")
+                                      x_scale=scales[cols], max_nfev=100, tr_solver="lsmr",
+                                      workers=res_held.map)
         gain = float(np.sum(held.fun[:tf.n_data] ** 2)) - chi2_t
         # ... and by more than YIELD_SHARE of what the fit leaves; a yield rotation far below
         # the design's (fy/k1) is a crack the fit took for a yield point
