@@ -367,9 +367,13 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     def unpack(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return z[:_NT * n].reshape(n, _NT), z[_NT * n:]
 
+    last: list = []  # the last point res_joint evaluated: z, g, theta, moment
+
     def res_joint(z: np.ndarray) -> np.ndarray:
         q, eps = unpack(z)
-        th = tf.angles(q, pb.moments(eps))[0]
+        g = pb.moments(eps)
+        th, mo = tf.angles(q, g)
+        last[:] = [np.array(z, dtype=float), g, th, mo]
         if not np.all(np.isfinite(th)):
             return np.full(tf.n_data + n + n_eps, 1e6)
         return tf.residual(q, eps, th)
@@ -385,8 +389,11 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     def jac_joint(z: np.ndarray) -> np.ndarray:
         # a spring's parameters move its own angle only: one spring integrated per column
         q, eps = unpack(z)
-        g0 = pb.moments(eps)
-        th0, mo0 = tf.angles(q, g0)
+        if last and np.array_equal(last[0], z):  # least_squares evaluated it just before
+            g0, th0, mo0 = last[1:]
+        else:
+            g0 = pb.moments(eps)
+            th0, mo0 = tf.angles(q, g0)
         r0 = tf.residual(q, eps, th0)
         jac = np.empty((r0.size, z.size))
         for col in range(z.size):
