@@ -116,12 +116,17 @@ def test_one_blas_thread_inside_the_previous_count_after(monkeypatch):
         a = np.random.default_rng(0).standard_normal((300, 20))
         return counts, np.linalg.svd(a, compute_uv=False)
 
-    counts, sv = inside()
-    assert counts == [1] * len(setters)
-    after = [s(1) for s in setters]
-    for s, b in zip(setters, after):
-        s(b)
-    assert after == before
+    @single_blas_thread
+    def nested():  # fit_field_families runs inside fit_field
+        return inside()
+
+    for call in (inside, nested):
+        counts, sv = call()
+        assert counts == [1] * len(setters)
+        after = [s(1) for s in setters]
+        for s, b in zip(setters, after):
+            s(b)
+        assert after == before
     np.testing.assert_allclose(
         sv, np.linalg.svd(np.random.default_rng(0).standard_normal((300, 20)),
                           compute_uv=False), rtol=1e-12)

@@ -361,7 +361,8 @@ class _JointResiduals:
         return self.pb.residual(p, eps, theta)
 
     def _moved_spring(self, z: np.ndarray) -> np.ndarray | None:
-        """The residuals of ``z`` when it moves one spring parameter of the last point."""
+        """The residuals of ``z`` when it moves one coordinate of the last point (a spring
+        parameter or a gain); None otherwise."""
         if self._last is None or self._last[0].shape != z.shape:
             return None
         z0, g, theta0 = self._last
@@ -380,7 +381,8 @@ class _JointResiduals:
         return self.pb.residual(p, eps, theta)
 
     def map(self, fun: Callable[[np.ndarray], np.ndarray], points) -> list[np.ndarray]:
-        """``[fun(z) for z in points]``, a point that moves one spring as above."""
+        """``[fun(z) for z in points]`` (``fun`` is this residual; a point that moves one
+        coordinate of the last point is evaluated as above)."""
         out = []
         for z in points:
             r = self._moved_spring(z)
