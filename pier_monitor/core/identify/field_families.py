@@ -90,35 +90,47 @@ def _damped_takeda_kernel(p, g, dt, c, theta, f):  # pragma: no cover - compiled
     a = 2.0 * c / dt
     for i in range(g.size - 1):
         # trapezoidal rule for c θ' = g − M: solve h(θ) = M(θ) + a (θ − θ_i) − base = 0,
-        # a = 2c/dt, base = g_i − M_i + g_{i+1}; h increases with θ (M's slopes >= 0)
+        # a = 2c/dt, base = g_i − M_i + g_{i+1}; h increases with θ (M's slopes >= 0).
+        # The Takeda moment at every trial angle is computed once (m_lo, m_hi, m_x: the
+        # trial's return depends on the committed state and the angle only)
         base = g[i] - f[i] + g[i + 1]
-        lo, hi = theta[i], theta[i]
+        th_i = theta[i]
+        lo, hi = th_i, th_i
         # bracket
-        h0 = _tak_trial(p, st, theta[i]) - base
+        m0 = _tak_trial(p, st, th_i)
+        h0 = m0 - base
         step = abs(base - f[i]) / (a + k0) + 1e-12
         if h0 < 0.0:
-            hi = theta[i] + step
-            while _tak_trial(p, st, hi) + a * (hi - theta[i]) - base < 0.0:
-                lo = hi
+            m_lo = m0
+            hi = th_i + step
+            m_hi = _tak_trial(p, st, hi)
+            while m_hi + a * (hi - th_i) - base < 0.0:
+                lo, m_lo = hi, m_hi
                 step *= 2.0
-                hi = theta[i] + step
+                hi = th_i + step
+                m_hi = _tak_trial(p, st, hi)
         else:
-            lo = theta[i] - step
-            while _tak_trial(p, st, lo) + a * (lo - theta[i]) - base > 0.0:
-                hi = lo
+            m_hi = m0
+            lo = th_i - step
+            m_lo = _tak_trial(p, st, lo)
+            while m_lo + a * (lo - th_i) - base > 0.0:
+                hi, m_hi = lo, m_lo
                 step *= 2.0
-                lo = theta[i] - step
+                lo = th_i - step
+                m_lo = _tak_trial(p, st, lo)
         # regula falsi (Illinois) on the piecewise-linear h
-        flo = _tak_trial(p, st, lo) + a * (lo - theta[i]) - base
-        fhi = _tak_trial(p, st, hi) + a * (hi - theta[i]) - base
+        flo = m_lo + a * (lo - th_i) - base
+        fhi = m_hi + a * (hi - th_i) - base
         x = lo
+        m_x = 0.0
         side = 0
         for _ in range(60):
             if fhi == flo:
                 x = 0.5 * (lo + hi)
             else:
                 x = hi - fhi * (hi - lo) / (fhi - flo)
-            fx = _tak_trial(p, st, x) + a * (x - theta[i]) - base
+            m_x = _tak_trial(p, st, x)  # the trial state st[9:] is x's
+            fx = m_x + a * (x - th_i) - base
             if abs(fx) <= 1e-10 * (abs(base) + 1e-30) or hi - lo <= 1e-15:
                 break
             if fx < 0.0:
@@ -131,11 +143,10 @@ def _damped_takeda_kernel(p, g, dt, c, theta, f):  # pragma: no cover - compiled
                 if side == 1:
                     flo *= 0.5
                 side = 1
-        m = _tak_trial(p, st, x)
         for j in range(TAKEDA_STATE_SIZE):
             st[j] = st[TAKEDA_STATE_SIZE + j]
         theta[i + 1] = x
-        f[i + 1] = m
+        f[i + 1] = m_x
 
 
 def damped_takeda(g: np.ndarray, dt: float, params: TakedaParameters, c: float
