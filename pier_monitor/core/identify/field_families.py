@@ -37,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize
 
+from pier_monitor.core._blas import single_blas_thread
 from pier_monitor.core._jit import jit
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.equation_error import SpringFit
@@ -89,35 +90,47 @@ def _damped_takeda_kernel(p, g, dt, c, theta, f):  # pragma: no cover - compiled
     a = 2.0 * c / dt
     for i in range(g.size - 1):
         # trapezoidal rule for c θ' = g − M: solve h(θ) = M(θ) + a (θ − θ_i) − base = 0,
-        # a = 2c/dt, base = g_i − M_i + g_{i+1}; h increases with θ (M's slopes >= 0)
+        # a = 2c/dt, base = g_i − M_i + g_{i+1}; h increases with θ (M's slopes >= 0).
+        # The Takeda moment at every trial angle is computed once (m_lo, m_hi, m_x: the
+        # trial's return depends on the committed state and the angle only)
         base = g[i] - f[i] + g[i + 1]
-        lo, hi = theta[i], theta[i]
+        th_i = theta[i]
+        lo, hi = th_i, th_i
         # bracket
-        h0 = _tak_trial(p, st, theta[i]) - base
+        m0 = _tak_trial(p, st, th_i)
+        h0 = m0 - base
         step = abs(base - f[i]) / (a + k0) + 1e-12
         if h0 < 0.0:
-            hi = theta[i] + step
-            while _tak_trial(p, st, hi) + a * (hi - theta[i]) - base < 0.0:
-                lo = hi
+            m_lo = m0
+            hi = th_i + step
+            m_hi = _tak_trial(p, st, hi)
+            while m_hi + a * (hi - th_i) - base < 0.0:
+                lo, m_lo = hi, m_hi
                 step *= 2.0
-                hi = theta[i] + step
+                hi = th_i + step
+                m_hi = _tak_trial(p, st, hi)
         else:
-            lo = theta[i] - step
-            while _tak_trial(p, st, lo) + a * (lo - theta[i]) - base > 0.0:
-                hi = lo
+            m_hi = m0
+            lo = th_i - step
+            m_lo = _tak_trial(p, st, lo)
+            while m_lo + a * (lo - th_i) - base > 0.0:
+                hi, m_hi = lo, m_lo
                 step *= 2.0
-                lo = theta[i] - step
+                lo = th_i - step
+                m_lo = _tak_trial(p, st, lo)
         # regula falsi (Illinois) on the piecewise-linear h
-        flo = _tak_trial(p, st, lo) + a * (lo - theta[i]) - base
-        fhi = _tak_trial(p, st, hi) + a * (hi - theta[i]) - base
+        flo = m_lo + a * (lo - th_i) - base
+        fhi = m_hi + a * (hi - th_i) - base
         x = lo
+        m_x = 0.0
         side = 0
         for _ in range(60):
             if fhi == flo:
                 x = 0.5 * (lo + hi)
             else:
                 x = hi - fhi * (hi - lo) / (fhi - flo)
-            fx = _tak_trial(p, st, x) + a * (x - theta[i]) - base
+            m_x = _tak_trial(p, st, x)  # the trial state st[9:] is x's
+            fx = m_x + a * (x - th_i) - base
             if abs(fx) <= 1e-10 * (abs(base) + 1e-30) or hi - lo <= 1e-15:
                 break
             if fx < 0.0:
@@ -130,11 +143,10 @@ def _damped_takeda_kernel(p, g, dt, c, theta, f):  # pragma: no cover - compiled
                 if side == 1:
                     flo *= 0.5
                 side = 1
-        m = _tak_trial(p, st, x)
         for j in range(TAKEDA_STATE_SIZE):
             st[j] = st[TAKEDA_STATE_SIZE + j]
         theta[i + 1] = x
-        f[i + 1] = m
+        f[i + 1] = m_x
 
 
 def damped_takeda(g: np.ndarray, dt: float, params: TakedaParameters, c: float
@@ -215,6 +227,59 @@ class _TakedaField:
         return float(np.sum(r[:self.n_data] ** 2))
 
 
+class _HeldResiduals:
+    """Residuals of the yield test: spring ``i`` held below yield (its ``θy`` at ``theta_p``)
+    and the ``free`` springs refitted from ``x`` (their parameters raveled), the others at
+    ``q``, the gains at ``eps``; ``g``, ``theta``, ``moment``: the fit's moments and
+    histories.  The last point evaluated in full is
+    remembered: a point of the finite-difference Jacobian that moves one parameter of one
+    free spring from it (:meth:`map`, the ``workers`` of
+    :func:`scipy.optimize.least_squares`) integrates that spring alone, the other free
+    springs' angles being the very numbers a full evaluation computes."""
+
+    def __init__(self, tf: _TakedaField, q: np.ndarray, eps: np.ndarray, i: int,
+                 free: list[int], g: np.ndarray, theta: np.ndarray, moment: np.ndarray,
+                 theta_p: float) -> None:
+        self.tf, self.q, self.eps, self.i, self.free, self.g = tf, q, eps, i, free, g
+        self.theta, self.moment, self.theta_p = theta, moment, theta_p
+        self._last: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def _params(self, x: np.ndarray) -> np.ndarray:
+        tf, i = self.tf, self.i
+        qq = self.q.copy()
+        qq[self.free] = x.reshape(len(self.free), _NT)
+        qq[i, 0] = np.log(tf.f_ref[i] * np.exp(qq[i, 2]) / (self.theta_p * tf.k_ref[i]))
+        return qq
+
+    def _residual(self, qq: np.ndarray, th: np.ndarray) -> np.ndarray:
+        if not np.all(np.isfinite(th)):
+            return np.full(self.tf.n_data + self.tf.pb.n + self.eps.size, 1e6)
+        return self.tf.residual(qq, self.eps, th)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        qq = self._params(x)
+        th, mo = self.tf.angles(qq, self.g, springs=self.free, theta=self.theta,
+                                moment=self.moment)
+        self._last = (np.array(x, dtype=float), th, mo)
+        return self._residual(qq, th)
+
+    def map(self, fun, points) -> list[np.ndarray]:
+        """``[fun(x) for x in points]``, a point that moves one spring as above."""
+        out = []
+        for x in points:
+            qq = self._params(x)
+            moved = (np.flatnonzero(x != self._last[0]) if self._last is not None
+                     and self._last[0].shape == x.shape else np.zeros(0, dtype=int))
+            if moved.size == 1:
+                th = self.tf.angles(qq, self.g, springs=[self.free[int(moved[0]) // _NT]],
+                                    theta=self._last[1], moment=self._last[2])[0]
+            else:  # in full, the last point kept
+                th = self.tf.angles(qq, self.g, springs=self.free, theta=self.theta,
+                                    moment=self.moment)[0]
+            out.append(self._residual(qq, th))
+        return out
+
+
 def _starts(n: int, k_scale: np.ndarray, c_log: np.ndarray) -> list[np.ndarray]:
     out = []
     for qy in (1.0, 0.6):
@@ -259,6 +324,7 @@ def _equation_error_start(pb: _FieldProblem, tf: _TakedaField, fit: FieldFit,
     return q
 
 
+@single_blas_thread
 def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                        settings: FieldSettings | None = None
                        ) -> tuple[FamilyChoice, np.ndarray, np.ndarray] | None:
@@ -312,9 +378,13 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     def unpack(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return z[:_NT * n].reshape(n, _NT), z[_NT * n:]
 
+    last: list = []  # the last point res_joint evaluated: z, g, theta, moment
+
     def res_joint(z: np.ndarray) -> np.ndarray:
         q, eps = unpack(z)
-        th = tf.angles(q, pb.moments(eps))[0]
+        g = pb.moments(eps)
+        th, mo = tf.angles(q, g)
+        last[:] = [np.array(z, dtype=float), g, th, mo]
         if not np.all(np.isfinite(th)):
             return np.full(tf.n_data + n + n_eps, 1e6)
         return tf.residual(q, eps, th)
@@ -330,8 +400,11 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     def jac_joint(z: np.ndarray) -> np.ndarray:
         # a spring's parameters move its own angle only: one spring integrated per column
         q, eps = unpack(z)
-        g0 = pb.moments(eps)
-        th0, mo0 = tf.angles(q, g0)
+        if last and np.array_equal(last[0], z):  # least_squares evaluated it just before
+            g0, th0, mo0 = last[1:]
+        else:
+            g0 = pb.moments(eps)
+            th0, mo0 = tf.angles(q, g0)
         r0 = tf.residual(q, eps, th0)
         jac = np.empty((r0.size, z.size))
         for col in range(z.size):
@@ -346,7 +419,14 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                 r = (tf.residual(qq, eps, th) if np.all(np.isfinite(th))
                      else np.full(r0.size, 1e6))
             else:
-                r = res_joint(zz)
+                # a gain moves the moments of the springs below its level only: the others'
+                # angles are those of th0 (res_joint's numbers, one integration per moved spring)
+                qq, eps_c = unpack(zz)
+                g = pb.moments(eps_c)
+                moved = np.flatnonzero(~np.all(g == g0, axis=0))
+                th = tf.angles(qq, g, springs=moved, theta=th0, moment=mo0)[0]
+                r = (tf.residual(qq, eps_c, th) if np.all(np.isfinite(th))
+                     else np.full(tf.n_data + n + n_eps, 1e6))
             jac[:, col] = (r - r0) / h
         return jac
 
@@ -375,18 +455,11 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         free = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
         cols = np.concatenate([np.arange(j * _NT, (j + 1) * _NT) for j in free])
 
-        def res_held(x: np.ndarray, i: int = i, free: list[int] = free) -> np.ndarray:
-            qq = q.copy()
-            qq[free] = x.reshape(len(free), _NT)
-            qq[i, 0] = np.log(tf.f_ref[i] * np.exp(qq[i, 2]) / (1.05 * peak[i] * tf.k_ref[i]))
-            th = tf.angles(qq, g, springs=free, theta=theta, moment=moment)[0]
-            if not np.all(np.isfinite(th)):
-                return np.full(tf.n_data + n + n_eps, 1e6)
-            return tf.residual(qq, eps, th)
-
+        res_held = _HeldResiduals(tf, q, eps, i, free, g, theta, moment, 1.05 * peak[i])
         x0 = np.clip(sol.x[cols], lo_f[cols] + 1e-9, hi_f[cols] - 1e-9)
         held = optimize.least_squares(res_held, x0, bounds=(lo_f[cols], hi_f[cols]),
-                                      x_scale=scales[cols], max_nfev=100, tr_solver="lsmr")
+                                      x_scale=scales[cols], max_nfev=100, tr_solver="lsmr",
+                                      workers=res_held.map)
         gain = float(np.sum(held.fun[:tf.n_data] ** 2)) - chi2_t
         # ... and by more than YIELD_SHARE of what the fit leaves; a yield rotation far below
         # the design's (fy/k1) is a crack the fit took for a yield point

@@ -44,7 +44,7 @@ from pier_monitor.core.identify.damage import (IdentificationResult, build_secti
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
-from pier_monitor.core.identify.field import FieldSettings, fit_field
+from pier_monitor.core.identify.field import FieldFit, FieldSettings, fit_field
 from pier_monitor.core.identify.field_families import fit_field_families
 from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
 from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
@@ -418,9 +418,23 @@ class FieldMethod:
 
     def run(self, window: MeasuredWindow, settings: IdentifySettings,
             callback: Callable[[Progress], None] | None = None) -> MethodOutput:
-        """Reconstruct the springs and the unmeasured motion from the physics."""
+        """Reconstruct the springs and the unmeasured motion from the physics.
+
+        The family is chosen before the ensemble is drawn: its members refit bilinear
+        springs, so where another family is chosen they would be dropped (no interval,
+        :data:`~pier_monitor.core.identify.damage.NO_INTERVAL_FAMILY`) and are not drawn."""
+        chosen = None
+
+        def bilinear_kept(fit: FieldFit) -> bool:
+            nonlocal chosen
+            if not window.coverage.is_full:  # the family by evidence (full windows: EE route)
+                chosen = fit_field_families(window, fit, settings.field_settings)
+            return chosen is None or chosen[0].family == "bilinear"
+
         fit = fit_field(window, settings.field_settings, members=settings.members,
-                        seed=settings.seed)
+                        seed=settings.seed, members_if=bilinear_kept)
+        if settings.members <= 1:
+            bilinear_kept(fit)
         draws = member_responses = None
         if fit.members is not None:
             ens = draws = fit.members  # FieldMembers are EnsembleDraws with their histories
@@ -430,13 +444,11 @@ class FieldMethod:
         stage_names = list(fit.stages)
         family = None
         x, v, theta, moment = fit.x, fit.v, fit.theta, fit.moment
-        if not window.coverage.is_full:  # the family by evidence (full windows: EE route)
-            chosen = fit_field_families(window, fit, settings.field_settings)
-            if chosen is not None:
-                family, theta, moment = chosen
-                if family.family != "bilinear":
-                    x = theta @ np.linalg.inv(angle_matrix(window.geometry.section_heights_m)).T
-                    v = np.gradient(x, window.dt, axis=0)
+        if chosen is not None:
+            family, theta, moment = chosen
+            if family.family != "bilinear":
+                x = theta @ np.linalg.inv(angle_matrix(window.geometry.section_heights_m)).T
+                v = np.gradient(x, window.dt, axis=0)
         a = np.where(window.coverage.acceleration, window.a,
                      np.gradient(v, window.dt, axis=0))
         reproduced = Reproduced(t=window.t.copy(), a=a, v=v, x=x, theta=theta, moment=moment)
