@@ -270,7 +270,9 @@ class SectionResult:
     """Identified state of one section (spring ``index`` + 1 and its damper), SI units.
 
     ``k1_change_pct`` is the change of ``k1`` against the result's baseline (%, None without
-    one: the first event of a pier has no change).  ``k1_vs_design_pct`` is the difference of
+    one: the first event of a pier has no change); against an earlier event, of the
+    stiffness each event leaves the section with, ``k_small_after`` for a family other than
+    the bilinear (:meth:`IdentificationResult.with_baseline`).  ``k1_vs_design_pct`` is the difference of
     ``k1`` from the design values (%, None when not known): no change and never a basis of a
     state (:meth:`IdentificationResult.with_design_k1`).  ``ductility_factor_upper_bound``
     (in :meth:`to_dict` too) says that the DF is only an upper bound.  A section identified
