@@ -682,15 +682,17 @@ def bench_rc(seeds: tuple[int, ...] = RC_HELD_OUT_SEEDS,
     field reconstruction otherwise; then the self-check), so the states scored are the ones
     the product reports.  Truth: the bilinear springs' DF, or for the RC springs
     (:mod:`pier_monitor.core.synthetic.rc`) the DF on the idealised yield of the skeleton
-    and whether the reinforcement yielded.  Seeds held out (:data:`RC_HELD_OUT_SEEDS`)."""
+    and whether the reinforcement yielded.  Seeds held out (:data:`RC_HELD_OUT_SEEDS`).
+    Each case is a pier of its own, in a store of its own: no case is another's baseline."""
     out = []
     with tempfile.TemporaryDirectory(prefix="pier_monitor_rc_") as tmp:
-        store = ResultsStore(Path(tmp))
         for hyst in hystereses:
             for pier in piers:
                 for layout in layouts:
                     for shaking in shakings:
                         for seed in seeds:
+                            store = ResultsStore(Path(tmp) / f"{hyst}_{pier}_{layout}_"
+                                                 f"{shaking}_{seed}")
                             out.append(_rc_run(store, hyst, pier, layout, shaking, seed))
     return out
 

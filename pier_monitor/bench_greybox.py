@@ -144,12 +144,13 @@ def greybox_run(store: ResultsStore, hyst: str, pier: str, shaking: str, seed: i
 def bench_greybox(make_window: WindowMaker, seeds: tuple[int, ...] = GREYBOX_SEEDS,
                   combos: tuple[tuple[str, str, str], ...] = GREYBOX_COMBOS
                   ) -> list[dict[str, Any]]:
-    """Every combination of every seed, whole seeds in order."""
+    """Every combination of every seed, whole seeds in order; each case a pier of its own,
+    in a store of its own (no case is another's baseline)."""
     out = []
     with tempfile.TemporaryDirectory(prefix="pier_monitor_greybox_") as tmp:
-        store = ResultsStore(Path(tmp))
         for seed in seeds:
             for hyst, pier, shaking in combos:
+                store = ResultsStore(Path(tmp) / f"{hyst}_{pier}_{shaking}_{seed}")
                 out.append(greybox_run(store, hyst, pier, shaking, seed, make_window))
     return out
 

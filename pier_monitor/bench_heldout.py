@@ -189,14 +189,15 @@ def bench_heldout(seeds: tuple[int, ...] = HELDOUT_SEEDS,
                   piers: tuple[str, ...] = ("edefense", "table1"),
                   layouts: tuple[str, ...] = ("full", "accel", "sparse")) -> list[dict[str, Any]]:
     """Every pier and layout on drawn cases (bilinear springs, ``seeds``) and on the RC
-    test-bed (modified Takeda, ``rc_seeds``), identified as the product does."""
+    test-bed (modified Takeda, ``rc_seeds``), identified as the product does.  Each case
+    is a pier of its own, in a store of its own: no case is another's baseline."""
     out = []
     with tempfile.TemporaryDirectory(prefix="pier_monitor_heldout_") as tmp:
-        store = ResultsStore(Path(tmp))
         for hyst, hyst_seeds in (("bilinear", seeds), ("takeda", rc_seeds)):
             for pier in piers:
                 for layout in layouts:
                     for seed in hyst_seeds:
+                        store = ResultsStore(Path(tmp) / f"{hyst}_{pier}_{layout}_{seed}")
                         try:
                             out.append(_heldout_run(store, pier, layout, seed, hyst))
                         except InputDataError as exc:  # a drawn case the generator cannot make

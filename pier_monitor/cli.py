@@ -353,6 +353,11 @@ def _print_event(ev: EventOutcome) -> None:
               "difference from the design values, not a change")
         if any(not sec.yielded for sec in r.sections):
             print("DF ≤: the spring did not yield; its DF is only an upper bound")
+        if any(sec.ductility_reference for sec in r.sections):
+            own = ", ".join("-" if sec.event_ductility_factor is None
+                            else f"{sec.event_ductility_factor:.2f}" for sec in r.sections)
+            print("DF: cumulative (the largest rotation so far over the virgin section's yield "
+                  f"rotation, {r.k1_baseline}); this event's own fit alone: {own}")
         for reason in r.unreliable_reasons:
             print(f"unreliable: {reason}")
         table = uncertainty_table(r)

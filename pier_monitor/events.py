@@ -14,11 +14,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from pier_monitor.core.identify.checks import check_identification
 from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.identify.selfcheck import self_check
 from pier_monitor.core.ingest.settings import EventIngest
 from pier_monitor.core.ingest.window import MeasuredWindow
+from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.identify.methods import IdentifySettings, Progress, identify
 from pier_monitor.report.results import ResultsPaths, write_results
 from pier_monitor.store import ResultsStore
@@ -76,6 +79,23 @@ class EventOutcome:
         return "unreliable" if self.result.unreliable_reasons else "identified"
 
 
+def _checked_params(result: IdentificationResult, window: MeasuredWindow) -> SpringParameters:
+    """The parameters the reproduction check judges: the identified ones, with ``k2`` of the
+    springs that did not yield (``k2`` not identifiable, never reported) the design's where
+    that is below the fit's.
+
+    A spring that stayed on its elastic branch gives its fit no information on ``k2``, so
+    the fit's ``k2`` may sit anywhere, at its bound too, and that says nothing of the
+    identification (the field reconstruction reports the design's there already).  On the
+    RC test-bed's ``just_yield`` shaking (E-Defense pier, full layout, seed 302) the upper
+    section's ``k2`` sat at its bound ``0.5 k1`` while the section stayed elastic, and made
+    the whole event unreliable, and with it no baseline for the next event."""
+    p = result.params
+    elastic = np.array([not s.k2_identifiable for s in result.sections])
+    k2 = np.where(elastic, np.minimum(window.design.k2, p.k2), p.k2)  # never above the fit's
+    return SpringParameters(p.k1, k2, p.fy, p.c)
+
+
 def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: ResultsStore, *,
                     progress: Callable[[Progress], None] | None = None,
                     figures: bool = True) -> EventOutcome:
@@ -96,7 +116,14 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
        suspicious (:meth:`IdentificationResult.with_evidence`), never a reliable intact.
        ``result.json`` holds the misfit (``model_misfit``) and each section's
        ``energy_index`` and ``evidence``.
-    5. The results are written (:func:`~pier_monitor.report.results.write_results`), with
+    5. With a baseline, each section's DF is the cumulative one, on the virgin section's
+       yield rotation (the baseline's, or this event's ``fy`` over the baseline's ``k1``)
+       and the largest rotation so far; the event's own DF is kept beside it and the states
+       are decided on the cumulative one
+       (:meth:`~pier_monitor.core.identify.damage.IdentificationResult.with_cumulative_ductility`).
+       The ``k1`` change is against the baseline, of the stiffness each event leaves the
+       section with (:meth:`~pier_monitor.core.identify.damage.IdentificationResult.with_baseline`).
+    6. The results are written (:func:`~pier_monitor.report.results.write_results`), with
        the window's ingest findings.
 
     A training that fails (a NaN loss, no GPU for ``device="cuda"``, out of memory) does not
@@ -139,11 +166,15 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
             f"identification failed: {type(err).__name__}: {err}"))
         return EventOutcome(window=window, result=failed, out_dir=out_dir,
                             window_file=window_file, paths=None)
-    reasons = check_identification(run.result.params, run.reproduced, window)
+    reasons = check_identification(_checked_params(run.result, window), run.reproduced,
+                                   window)
     check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a)
-    run = replace(run, result=run.result.with_evidence(check.energy_index, check.evidence,
-                                                       check.misfit.as_dict()))
     reasons = [*reasons, *check.unreliable_reasons]
+    result = run.result
+    if baseline is not None and not reasons:  # an unreliable result's DF is no diagnosis
+        result = result.with_cumulative_ductility(baseline, store.peak_rotations_before(window))
+    run = replace(run, result=result.with_evidence(check.energy_index, check.evidence,
+                                                   check.misfit.as_dict()))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,

@@ -230,6 +230,25 @@ class ResultsStore:
                         window.event_id, tops.tolist(), z[1:].tolist())
         return None
 
+    def peak_rotations_before(self, window: MeasuredWindow) -> np.ndarray | None:
+        """The largest spring rotation per section, rad (N,), over the reliable results of
+        ``window``'s pier whose windows started before it and whose sections are those of
+        ``window`` (the same rule as :meth:`baseline_for`); None when there is none.  The
+        peak so far of the cumulative DF
+        (:meth:`~pier_monitor.core.identify.damage.IdentificationResult.with_cumulative_ductility`).
+        """
+        z = np.asarray(window.geometry.level_heights_m, dtype=float)
+        peaks = []
+        for r in self.results(window.pier_id):
+            if not (self.is_baseline(r) and r.window_start_ns < window.start_time_ns):
+                continue
+            tops = np.array([s.z_top_m for s in r.sections], dtype=float)
+            if tops.shape == z[1:].shape and np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
+                peaks.append([s.max_angle_rad for s in r.sections])
+        if not peaks:
+            return None
+        return np.nanmax(np.array(peaks, dtype=float), axis=0)
+
     def is_baseline(self, result: IdentificationResult) -> bool:
         """Whether ``result`` may be a later event's baseline: a reliable result (a
         successful identification that passed its self-check) whose ``k1`` are all finite

@@ -48,7 +48,18 @@ def test_second_run_shows_the_larger_stiffness_loss_where_the_truth_has_it(bag, 
     # ductility: run 2 drives sections 1-2 far into yield
     df1, df2 = r1.ductility_factors, r2.ductility_factors
     assert np.all(df2[damaged] > df1[damaged])
-    np.testing.assert_allclose(df2[damaged], truth[1].ductility_factors[damaged], rtol=0.02)
+    # the event's own DF (its own springs' yield rotation) is run 2's true DF; the DF that
+    # decides is the cumulative one: the peak so far over run 1's (virgin) yield rotation
+    # where run 1 yielded (section 1), else over run 2's fy on run 1's k1 (section 2, whose
+    # bilinear springs in this bag also lost 22 % of their strength in run 2)
+    own = np.array([s.event_ductility_factor for s in r2.sections])
+    np.testing.assert_allclose(own[damaged], truth[1].ductility_factors[damaged], rtol=0.02)
+    p1, p2 = truth[0].params, truth[1].params
+    peak_so_far = np.maximum(truth[1].ductility_factors * p2.yield_angles,
+                             truth[0].ductility_factors * p1.yield_angles)
+    reference = np.where(truth[0].ductility_factors > 1.0, p1.yield_angles, p2.fy / p1.k1)
+    np.testing.assert_allclose(df2[damaged], (peak_so_far / reference)[damaged], rtol=0.03)
+    assert r1.sections[0].yielded and not r1.sections[1].yielded
     assert [s.state for s in r2.sections][:2] == ["damaged", "damaged"]
     # the second event's k1 change is relative to the first event
     assert r2.sections[0].k1_change_pct == pytest.approx(est_change[0], abs=1e-6)

@@ -12,7 +12,8 @@ from pier_monitor.core.identify.equation_error import (
     fit_equation_error,
     inertia_moments,
 )
-from pier_monitor.core.identify.families import fit_families, moment_noise_variance
+from pier_monitor.core.identify.families import (fit_families, moment_noise_variance,
+                                                 takeda_yielded)
 from pier_monitor.core.model.ground_motion import synthetic_near_fault
 from pier_monitor.core.model.link_model import angle_matrix, bilinear_step
 from pier_monitor.core.model.springs import (
@@ -156,3 +157,19 @@ def test_rc_data_choose_the_takeda_with_the_idealised_ductility():
     assert ch.stiffness_degradation[0] == pytest.approx(
         truth.k_small_after[0] / truth.k_small_before[0] - 1.0, abs=0.10)
     assert "takeda chosen" in ch.reason
+
+
+@pytest.mark.parametrize("margin, bilinear, yielded", [
+    (8.3, False, False),   # fiber column, shaking 1, section 3: bars at 0.23 of yield
+    (157.6, False, True),  # fiber column, shaking 1, base: bars at 3.3 times yield
+    (2.2, True, True),     # bwbn springs, 10 s window (n_eff 10), base: DF 2.8
+    (20.5, True, True),    # bwbn springs, E-Defense strong, base: DF 3.3
+    (-4.3, True, False),   # fiber column, shaking 2, base: the fit held below yield is better
+])
+def test_a_takeda_yield_needs_very_strong_evidence_or_a_second_witness(margin, bilinear,
+                                                                       yielded):
+    """Crack opening is no yield: a kink on a smoothly cracking branch fits a little better
+    than the Takeda held below yield, and the bilinear finds no yield in it.  The margins
+    are those measured (BIC of the unyielded Takeda minus the Takeda's, see
+    :data:`YIELD_EVIDENCE`)."""
+    assert takeda_yielded(margin, bilinear) is yielded

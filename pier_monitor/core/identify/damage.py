@@ -192,7 +192,9 @@ def _may_have_yielded(yielded: bool, uncertainty: SectionUncertainty | None) -> 
 def decide_state(ductility_factor: float, yielded: bool,
                  uncertainty: SectionUncertainty | None = None, *,
                  k1_loss: str | None = None,
-                 evidence: Sequence[str] = ()) -> tuple[DamageState, tuple[str, ...]]:
+                 evidence: Sequence[str] = (),
+                 event_ductility_factor: float | None = None
+                 ) -> tuple[DamageState, tuple[str, ...]]:
     """The state of a section and the reasons for every promotion (see the module's rules).
 
     Parameters
@@ -211,6 +213,13 @@ def decide_state(ductility_factor: float, yielded: bool,
     evidence : sequence of str
         Reason lines of the self-check (a large energy index, a model misfit): each makes
         the section at least suspicious, with or without an uncertainty (rules 5-6).
+    event_ductility_factor : float, optional
+        Given when ``ductility_factor`` is the cumulative DF on an earlier event's (virgin)
+        yield rotation (:meth:`IdentificationResult.with_cumulative_ductility`) and this is
+        the event's own.  The ensemble's members judged the event's own DF, so their most
+        probable state does not apply: the state starts from the cumulative DF's class, and
+        the straddle rule reads the members' DF interval scaled by
+        ``ductility_factor / event_ductility_factor``.
 
     Returns
     -------
@@ -225,6 +234,13 @@ def decide_state(ductility_factor: float, yielded: bool,
     state = uncertainty.most_probable_state
     reasons = []
     df = uncertainty.ductility_factor
+    if event_ductility_factor is not None:  # cumulative: the members judged the event alone
+        state = classify_ductility(ductility_factor)
+        scale = (ductility_factor / event_ductility_factor
+                 if math.isfinite(event_ductility_factor) and event_ductility_factor > 0
+                 else math.nan)
+        df = replace(df, mean=df.mean * scale, std=df.std * scale, lo=df.lo * scale,
+                     hi=df.hi * scale)
     crossed = [t for t in (SUSPICIOUS_DF, DAMAGED_DF) if df.straddles(t)]
     if crossed and state == DamageState.INTACT:
         state = DamageState.SUSPICIOUS
@@ -254,7 +270,9 @@ class SectionResult:
     """Identified state of one section (spring ``index`` + 1 and its damper), SI units.
 
     ``k1_change_pct`` is the change of ``k1`` against the result's baseline (%, None without
-    one: the first event of a pier has no change).  ``k1_vs_design_pct`` is the difference of
+    one: the first event of a pier has no change); against an earlier event, of the
+    stiffness each event leaves the section with, ``k_small_after`` for a family other than
+    the bilinear (:meth:`IdentificationResult.with_baseline`).  ``k1_vs_design_pct`` is the difference of
     ``k1`` from the design values (%, None when not known): no change and never a basis of a
     state (:meth:`IdentificationResult.with_design_k1`).  ``ductility_factor_upper_bound``
     (in :meth:`to_dict` too) says that the DF is only an upper bound.  A section identified
@@ -274,6 +292,15 @@ class SectionResult:
     90 % interval is wider than :data:`IDENTIFIABILITY_LIMITS` allows
     (:func:`poorly_identified`): shown with their interval, never a basis of a state.
     Empty without an ensemble (no interval: nothing flagged).
+
+    ``ductility_factor`` and ``yield_angle_rad`` are what the state is decided on.  An event
+    identified alone assumes springs undamaged at the window start; with an earlier event
+    of the pier as baseline the DF is the cumulative one, the largest rotation so far over
+    the virgin section's yield rotation
+    (:meth:`IdentificationResult.with_cumulative_ductility`): then ``ductility_reference``
+    says what it is measured on, and ``event_ductility_factor`` / ``event_yield_angle_rad``
+    keep the event's own (on its own fit's yield rotation); None and ``""`` otherwise (the
+    DF is the event's own).
     """
 
     index: int
@@ -304,6 +331,9 @@ class SectionResult:
     k_small_after: float | None = None
     stiffness_loss_pct: float | None = None
     poorly_identified: tuple[str, ...] = ()
+    event_ductility_factor: float | None = None
+    event_yield_angle_rad: float | None = None
+    ductility_reference: str = ""
 
     @property
     def ductility_factor_upper_bound(self) -> bool:
@@ -356,10 +386,60 @@ class SectionResult:
             if event and k1_loss_beyond_scatter(change_pct, interval):
                 loss = k1_loss_reason(change_pct, interval, baseline_label)
         state, reasons = decide_state(self.ductility_factor, self.yielded, u, k1_loss=loss,
-                                      evidence=self.evidence)
+                                      evidence=self.evidence,
+                                      event_ductility_factor=self._event_df_if_cumulative())
         return replace(self, k1_change_pct=float(change_pct), k1_change_lo_pct=lo,
                        k1_change_hi_pct=hi, k1_change_scatter_pct=scatter,
                        state=state.name.lower(), reasons=reasons)
+
+    def _event_df_if_cumulative(self) -> float | None:
+        """The event's own DF where the DF is a cumulative one (see the class), else None."""
+        if not self.ductility_reference:
+            return None
+        return math.nan if self.event_ductility_factor is None else self.event_ductility_factor
+
+    def cumulative(self, baseline: SectionResult, peak_so_far: float,
+                   baseline_label: str) -> SectionResult:
+        """A copy whose DF is the cumulative one on ``baseline``'s virgin yield rotation.
+
+        The reference yield rotation (:meth:`IdentificationResult.with_cumulative_ductility`):
+        the baseline's own where its spring yielded (its yield rotation identified on the
+        virgin section); otherwise this event's ``fy`` over the baseline's ``k1`` (the yield
+        moment reached now on the virgin section's elastic stiffness).  The section counts as
+        yielded if it yielded now or in the baseline; the DF is ``peak_so_far`` over the
+        reference, at most 1 where it yielded in neither (as for a single event).  The state
+        is decided again on that DF.  A section without a DF (NaN), or a reference that is
+        no positive finite rotation, stays as it is.
+        """
+        if not math.isfinite(self.ductility_factor):
+            return self
+        if baseline.yielded and math.isfinite(baseline.yield_angle_rad):
+            theta_y = float(baseline.yield_angle_rad)
+            what = f"the virgin yield rotation of {baseline_label}"
+        else:
+            theta_y = float(self.fy / baseline.k1)
+            what = f"this event's fy over k1 of {baseline_label} (virgin)"
+        if not (math.isfinite(theta_y) and theta_y > 0 and math.isfinite(peak_so_far)):
+            return self
+        yielded = bool(self.k2_identifiable or baseline.yielded)  # k2_identifiable: the event's own
+        peak = max(float(peak_so_far), float(self.max_angle_rad))
+        df = float(capped_ductility(peak, theta_y, yielded))
+        own = self if not self.ductility_reference else replace(
+            self, ductility_factor=self.event_ductility_factor,
+            yield_angle_rad=self.event_yield_angle_rad)
+        out = replace(self, ductility_factor=df, yield_angle_rad=theta_y, yielded=yielded,
+                      event_ductility_factor=float(own.ductility_factor),
+                      event_yield_angle_rad=float(own.yield_angle_rad),
+                      ductility_reference=(f"cumulative: peak rotation so far {peak:.4g} rad "
+                                           f"on {what}, {theta_y:.4g} rad"))
+        state, reasons = decide_state(df, yielded, out.uncertainty, evidence=out.evidence,
+                                      event_ductility_factor=out._event_df_if_cumulative())
+        # the k1-loss reason of a rebase stays (it does not depend on the DF)
+        loss = tuple(r for r in self.reasons if r.startswith("k1 ") and "cracking" in r)
+        if loss:
+            state = max(state, DamageState.SUSPICIOUS)
+            reasons = reasons + tuple(r for r in loss if r not in reasons)
+        return replace(out, state=state.name.lower(), reasons=reasons)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain form for JSON (the uncertainty as a dict or None, reasons as a list)."""
@@ -487,15 +567,17 @@ class IdentificationResult:
 
     def with_k1_baseline(self, baseline_k1: np.ndarray, label: str, *,
                          spreads: Sequence[Spread | None] | None = None,
-                         event: bool = False) -> IdentificationResult:
+                         event: bool = False,
+                         own_k1: np.ndarray | None = None) -> IdentificationResult:
         """A copy whose ``k1`` changes are relative to ``baseline_k1`` (N,), N·m/rad.
 
         ``label`` names the baseline (e.g. ``"design values"``, ``"event run1"``).  The
         sections' change intervals and states are decided again (:meth:`SectionResult.rebased`):
         ``spreads`` are the baseline's ``k1`` spreads per section (None where it has none),
         ``event`` says that the baseline is an earlier event (:meth:`with_baseline`).
+        ``own_k1`` (N,) is the stiffness compared with it (default the sections' ``k1``).
         """
-        change = k1_change_pct(self.params.k1, baseline_k1)
+        change = k1_change_pct(self.params.k1 if own_k1 is None else own_k1, baseline_k1)
         base = np.asarray(baseline_k1, dtype=float)
         spreads = [None] * len(self.sections) if spreads is None else list(spreads)
         if len(spreads) != len(self.sections):
@@ -594,13 +676,74 @@ class IdentificationResult:
     def with_baseline(self, baseline: IdentificationResult) -> IdentificationResult:
         """A copy whose ``k1`` changes are relative to an earlier event's result.
 
+        The change is between the two identified events, of the stiffness each leaves the
+        section with (:meth:`small_amplitude_stiffness`): ``k1`` for bilinear springs, the
+        small-amplitude (unloading) stiffness after the event, ``k_small_after``, for a
+        family whose stiffness degrades with the peak (the modified Takeda).  The bilinear
+        ``k1`` of a degrading section is a secant over the event's cracked and yielded
+        branches: between two shakings of the RC test-bed (``bench_rc_sequence``, seed 302)
+        it fell by 63 % at the base where the springs' small-amplitude stiffness fell by 32 %,
+        and ``k_small_after`` by 38 %.
+
         The baseline's ``k1`` spreads widen the change intervals, and a loss beyond the two
         identifications' scatter makes a section at least suspicious (cracking).
         """
         return self.with_k1_baseline(
-            baseline.params.k1, f"event {baseline.event_id}", event=True,
+            baseline.small_amplitude_stiffness, f"event {baseline.event_id}", event=True,
             spreads=[None if s.uncertainty is None else s.uncertainty.k1
-                     for s in baseline.sections])
+                     for s in baseline.sections],
+            own_k1=self.small_amplitude_stiffness)
+
+    @property
+    def small_amplitude_stiffness(self) -> np.ndarray:
+        """Per section, N·m/rad: the stiffness the event leaves it with, what a ``k1`` change
+        against an earlier event compares (:meth:`with_baseline`): ``k_small_after`` where
+        the section's family is not the bilinear and it is a positive finite value, else
+        ``k1`` (a bilinear spring unloads on ``k1``)."""
+        return np.array([s.k_small_after if (s.family != "bilinear"
+                                             and s.k_small_after is not None
+                                             and math.isfinite(s.k_small_after)
+                                             and s.k_small_after > 0) else s.k1
+                         for s in self.sections], dtype=float)
+
+    def with_cumulative_ductility(self, baseline: IdentificationResult,
+                                  peak_so_far: np.ndarray | None = None
+                                  ) -> IdentificationResult:
+        """A copy whose DFs are the cumulative ones, on the virgin section's yield rotation.
+
+        An event is identified alone, from springs taken as undamaged at its window start; a
+        section cracked or yielded by an earlier event then fits a softer spring whose yield
+        rotation is too large, and its own DF means less than it says (an engineer's DF is
+        the peak rotation over the idealised yield rotation of the virgin section, RC_NOTES).
+        With ``baseline`` (the pier's earliest reliable event, the virgin section as far as
+        the monitoring knows it) each section's DF becomes (:meth:`SectionResult.cumulative`)
+
+        * reference yield rotation: the baseline's own where its spring yielded there (its
+          yield rotation was identified on the virgin section: the idealised yield of the
+          identified skeleton, ``fy/k1`` for the bilinear); otherwise this event's ``fy``
+          over the baseline's ``k1``: the yield moment is a strength, which cracking barely
+          changes, while the stiffness that turns it into a rotation must be the virgin one;
+        * peak rotation: the largest of this event's and ``peak_so_far`` (the earlier
+          events' peaks, default the baseline's);
+        * yielded where it yielded now or in the baseline; the DF at most 1 elsewhere.
+
+        The event's own DF and yield rotation stay in ``event_ductility_factor`` and
+        ``event_yield_angle_rad``, what the DF is measured on in ``ductility_reference``;
+        the states are decided on the cumulative DF.  An unreliable or failed result, or a
+        baseline of other sections, is returned unchanged.
+        """
+        if not self.reliable or len(baseline.sections) != len(self.sections):
+            return self
+        label = f"event {baseline.event_id}"
+        peaks = (np.array([b.max_angle_rad for b in baseline.sections], dtype=float)
+                 if peak_so_far is None else np.asarray(peak_so_far, dtype=float))
+        if peaks.shape != (len(self.sections),):
+            raise InputDataError(f"peak_so_far: expected {len(self.sections)} rotations, got "
+                                 f"shape {peaks.shape}")
+        peaks = np.where(np.isfinite(peaks), peaks, 0.0)
+        sections = tuple(s.cumulative(b, float(p), label)
+                         for s, b, p in zip(self.sections, baseline.sections, peaks))
+        return replace(self, sections=sections, overall_state=overall_state(sections))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain form for JSON."""
