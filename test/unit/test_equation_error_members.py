@@ -50,7 +50,7 @@ def test_gain_errors_make_upper_sections_uncertain_never_damaged():
 
 def test_members_without_gains_hardly_differ_where_the_fit_is_off():
     """The mechanism the gains stand for: the same case with the members perturbed by the
-    noise model's noise alone (``gain_scale`` and ``residual_scale`` 0): the members' ``k1``
+    noise model's noise alone (``member_gain_scale`` and ``member_residual_scale`` 0): the members' ``k1``
     of the upper sections agree to a fraction of a per cent, while the fit is off by more
     than 10 % there: an interval that would not hold the truth."""
     w0, truth, _ = paper_case_window(moments_measured=False, seed=2)
@@ -59,8 +59,8 @@ def test_members_without_gains_hardly_differ_where_the_fit_is_off():
     window = dataclasses.replace(w0, x=w0.x * gains,
                                  noise=dataclasses.replace(w0.noise, gain_rel=0.01))
     settings = IdentifySettings(method="equation_error", seed=0, members=6)
-    settings.equation_error_settings.gain_scale = 0.0
-    settings.equation_error_settings.residual_scale = 0.0
+    settings.equation_error_settings.member_gain_scale = 0.0
+    settings.equation_error_settings.member_residual_scale = 0.0
     secs = identify(window, settings).result.sections
     for i in (3, 4):
         u = secs[i].uncertainty

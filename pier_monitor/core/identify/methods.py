@@ -58,7 +58,8 @@ __all__ = ["DEFAULT_MEMBERS", "DEFAULT_TERM_WEIGHTS", "PAPER_TERM_WEIGHTS", "TER
            "EnsembleDraws", "EquationErrorMethod", "EquationErrorSettings", "FieldMethod",
            "IdentificationRun", "IdentifySettings", "Method", "MethodOutput", "PinnMethod",
            "PinnSettings", "Progress",
-           "choose_method", "identify", "prepare_method"]
+           "choose_method", "identify", "moment_residuals", "prepare_method",
+           "with_moment_perturbation"]
 
 #: The PINN's loss terms: the data misfit, then the physics terms.
 TERMS = ("data", "eom", "newmark_a", "newmark_v", "newmark_x", "hysteresis")
@@ -187,11 +188,11 @@ class EquationErrorSettings:
     ----------
     yield_score : float
         Threshold of the yield test (see :func:`~pier_monitor.core.identify.equation_error.yield_test`).
-    residual_scale : float
+    member_residual_scale : float
         The members' restoring moments are also perturbed by a phase-randomised copy of the
         fit's own moment residuals (:func:`moment_residuals`) times this (0: not at all).
-    gain_scale : float
-        The members' sensor gains are drawn with ``gain_scale · noise.gain_rel``
+    member_gain_scale : float
+        The members' sensor gains are drawn with ``member_gain_scale · noise.gain_rel``
         (:func:`~pier_monitor.core.identify.ensemble.member_windows`; 0: no gains).  Above 1
         for what the noise model does not know and acts as a gain does through ``θ = B x``
         (the sensors' azimuth errors leak the transverse motion in at about 1 %).
@@ -206,8 +207,8 @@ class EquationErrorSettings:
     """
 
     yield_score: float = 50.0
-    residual_scale: float = 1.0
-    gain_scale: float = 1.25
+    member_residual_scale: float = 1.0
+    member_gain_scale: float = 1.25
 
 
 @dataclass
@@ -512,13 +513,13 @@ class EquationErrorMethod:
       with it found ``c`` 15-77 % low on sections 3-5 of the Table-1 pier where the fit
       itself was within 5 % (errors in the variables of ``Δθ̇``);
     * each level's acceleration and displacement gain drawn on its own, with
-      ``gain_scale · noise.gain_rel``: through ``θ = B x`` a gain error is a rotation
+      ``member_gain_scale · noise.gain_rel``: through ``θ = B x`` a gain error is a rotation
       error of ``ε x / h``, tens of per cent of an upper section's own rotation, and the
       fit's ``k1`` there is as far off (on the held-out tuning cases, 20-180 %); the
       members spread as much, and those sections' ``k1`` is flagged poorly identified;
     * the restoring moments off by a phase-randomised copy
       (:func:`~pier_monitor.core.identify.field._phase_randomised`) of the fit's own moment
-      residuals (:func:`moment_residuals`) times ``residual_scale``: what the springs do
+      residuals (:func:`moment_residuals`) times ``member_residual_scale``: what the springs do
       not explain, with its spectrum and its correlation between sections.
 
     Without the gains the members hardly differ (k1 alike to 0.1 %, the fit off by 5-25 %
@@ -540,7 +541,7 @@ class EquationErrorMethod:
         own = settings.equation_error_settings
         b = angle_matrix(window.geometry.section_heights_m)
         windows = member_windows(window, settings.members, seed=settings.seed,
-                                 gain_scale=own.gain_scale, velocity_from_acceleration=True)
+                                 gain_scale=own.member_gain_scale, velocity_from_acceleration=True)
         if first is not None:
             fits = [_member_fit(first.params, first.yielded)]
             thetas, moments = [first.reproduced.theta], [first.reproduced.moment]
@@ -552,9 +553,9 @@ class EquationErrorMethod:
             fits, thetas, moments = [], [], []
             _append_member(fits, thetas, moments, window, fit0, b)
         residuals = None
-        if settings.members > 1 and own.residual_scale > 0:
+        if settings.members > 1 and own.member_residual_scale > 0:
             params_fit = SpringParameters(*fits[0][0].T)
-            residuals = own.residual_scale * _beyond_noise(
+            residuals = own.member_residual_scale * _beyond_noise(
                 moment_residuals(thetas[0], moments[0], params_fit, fits[0][1]),
                 _moment_noise(window, params_fit))
         rng_res = np.random.default_rng([settings.seed, 2])  # the residuals' surrogates
