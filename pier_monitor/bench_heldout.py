@@ -59,6 +59,10 @@ TUNING = {
     "yield_share": "field suite, seeds 0-4 (fixed design factors)",
     "poorly_identified_limits": "stated a priori (k1 +-10 %, c/k2/fy/DF +-30 %), not tuned",
     "default_members": "chosen on identification time of the field suite's cases",
+    "equation_error_members": ("16 members, member_gain_scale 1.25, member_residual_scale "
+                               "1.0 of the equation-error route: heldout suite, layout full, "
+                               "both piers, tuning seeds 620-627 (coverage of the 90 % "
+                               "intervals, time)"),
 }
 #: Log-normal spread (σ of the natural log) of the design values around the truth.
 DESIGN_LOG_SD = 0.25

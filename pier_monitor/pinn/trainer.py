@@ -295,7 +295,10 @@ def train_pinn(window: MeasuredWindow, settings: IdentifySettings,
     torch.manual_seed(settings.seed)
     np.random.seed(settings.seed)
     pinn = settings.pinn_settings
-    windows = member_windows(window, settings.members, seed=settings.seed)
+    windows = member_windows(  # the equation-error route's member windows
+        window, settings.members, seed=settings.seed,
+        gain_scale=settings.equation_error_settings.member_gain_scale,
+        velocity_from_acceleration=True)
     inits, yielded0 = _member_starts(windows, settings)
     init = inits[0]
     problem = _PinnProblem(windows, settings, device, init)

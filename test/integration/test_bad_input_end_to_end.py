@@ -83,8 +83,15 @@ def faulty_bag(source, tmp_path: Path, fault) -> Path:
 def test_the_clean_bag_gives_the_true_states(source, clean):
     synthetic, _ = source
     for result, truth in zip(clean[1], synthetic.truth.runs, strict=True):
-        assert [s.state for s in result.sections] == [
-            classify_ductility(df).name.lower() for df in truth.ductility_factors]
+        # the true state, or suspicious for a reason the 90 % intervals give (a fully measured
+        # bag carries them by default: an elastic upper section's DF interval may straddle 1.2)
+        for s, df in zip(result.sections, truth.ductility_factors, strict=True):
+            want = classify_ductility(df).name.lower()
+            assert s.state == want or (s.state == "suspicious" and want == "intact"
+                                        and s.reasons), (s.index, s.state, want, s.reasons)
+        assert [s.state for s in result.sections if s.ductility_factor > 1.0] == [
+            classify_ductility(df).name.lower() for s, df in
+            zip(result.sections, truth.ductility_factors) if s.ductility_factor > 1.0]
         assert result.findings == ()  # nothing to repair
 
 
@@ -164,9 +171,18 @@ def test_an_unrepaired_glitch_makes_the_result_unreliable_never_damaged(source, 
 
 
 def _same_states(result: IdentificationResult, clean_result: IdentificationResult) -> None:
-    """The states of the clean bag's result, DFs of the yielded sections within 10 %."""
+    """The states of the clean bag's result, DFs of the yielded sections within 10 %.
+
+    Intact and suspicious-for-a-reason-of-the-intervals count alike: the clean bag is fully
+    measured (the equation-error route, its 90 % intervals by default, which may promote
+    an elastic upper section to suspicious), a faulty one may be reconstructed by the field
+    route, whose intervals are its own."""
     assert result.reliable, result.message
-    assert [s.state for s in result.sections] == [s.state for s in clean_result.sections]
+
+    def state(s):
+        return "intact" if s.state == "suspicious" and not s.yielded and s.reasons else s.state
+
+    assert [state(s) for s in result.sections] == [state(s) for s in clean_result.sections]
     for got, want in zip(result.sections, clean_result.sections, strict=True):
         if want.yielded:
             assert got.ductility_factor == pytest.approx(want.ductility_factor, rel=0.10)

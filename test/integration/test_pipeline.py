@@ -100,9 +100,10 @@ def test_command_line_identify_and_compare(bag, tmp_path, capsys):
     text = capsys.readouterr().out
     assert rc == 0
     assert text.count("overall state") == 2 and "k1 change" in text
-    # a fully measured bag: the equation-error route, one identification by default
-    # (methods.DEFAULT_MEMBERS; the field route's intervals are on by default)
-    assert text.count("intervals: no interval (1 member)") == 2
+    # a fully measured bag: the equation-error route, its 90 % intervals by default
+    # (methods.DEFAULT_MEMBERS: 16 members)
+    assert text.count("uncertainty over 16 members") == 2
+    assert "no interval" not in text
     events = sorted(p for p in out.iterdir() if p.is_dir())
     rc = main(["compare", str(events[0]), str(events[1]), "--out", str(tmp_path / "cmp")])
     text = capsys.readouterr().out

@@ -102,7 +102,7 @@ def test_the_ensemble_of_perturbed_windows_holds_the_truth_and_each_member_decid
     result = identify(window, IdentifySettings(method="equation_error", seed=0,
                                                members=16)).result
     assert result.members == 16
-    assert DEFAULT_MEMBERS["equation_error"] == 1  # see DEFAULT_MEMBERS: not yet by default
+    assert DEFAULT_MEMBERS["equation_error"] == 16  # intervals by default on this route
     for s in result.sections:
         assert s.uncertainty.k1.std > 0 and s.uncertainty.c.std > 0  # the members differ
     for i in (3, 4, 5):  # elastic: the truth inside the 90 % intervals of k1 and c

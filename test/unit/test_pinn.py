@@ -173,7 +173,9 @@ def test_pinn_members_start_from_their_own_windows_fits_and_spread_by_the_data()
     window, truth, _ = paper_case_window(moments_measured=True, seed=0)
     settings = IdentifySettings(method="pinn", seed=3, members=4,
                                 pinn_settings=PinnSettings(max_epochs=20, min_epochs=20))
-    windows = member_windows(window, 4, seed=3)
+    own = settings.equation_error_settings
+    windows = member_windows(window, 4, seed=3, gain_scale=own.member_gain_scale,
+                             velocity_from_acceleration=True)
     inits, yielded = _member_starts(windows, settings)
     assert yielded.shape == (4, window.n_levels)
     for w, start in zip(windows, inits):

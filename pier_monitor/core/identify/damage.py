@@ -16,7 +16,11 @@ an ensemble carries a :class:`~pier_monitor.core.identify.uncertainty.SectionUnc
    damaged", and the most probable state already chose between them);
 3. "not yielded" (``k2``/``fy`` not identifiable, DF <= 1) stands only while the probability
    that the spring yielded is below :data:`P_YIELD_LOW`; a section reported as not yielded
-   with a larger probability "may have yielded" and is at least suspicious;
+   with a larger probability "may have yielded" and is at least suspicious, and never more
+   than suspicious by the members alone: the identification itself says elastic, and the
+   members that yielded are perturbed copies of its data (on the equation-error route a
+   drawn gain difference between neighbouring levels is a rotation the moments do not
+   explain, which a member's yield test may take for yielding);
 4. a ``k1`` loss against an earlier event whose 90 % interval lies below zero by more than the
    identification's own scatter (:func:`k1_loss_beyond_scatter`) is cracking: the section
    is at least suspicious.  Against design values the rule does not apply: a design value
@@ -232,6 +236,10 @@ def decide_state(ductility_factor: float, yielded: bool,
     if uncertainty is None or uncertainty.members < 2:
         return _with_evidence(classify_ductility(ductility_factor), (), evidence)
     state = uncertainty.most_probable_state
+    if not yielded:
+        # the identification says elastic: the members that yielded make it "may have
+        # yielded" (rule 3), never damaged on their own
+        state = min(state, DamageState.SUSPICIOUS)
     reasons = []
     df = uncertainty.ductility_factor
     if event_ductility_factor is not None:  # cumulative: the members judged the event alone

@@ -14,7 +14,10 @@ member's window is the measured one plus a draw of those errors:
 * the sensors' gains, known only to ``noise.gain_rel``: each level's absolute acceleration
   and displacement scaled by its own ``1 + ε``, ``ε ~ N(0, gain_rel)``.
 
-Member 0 is the measured window itself.  Levels that nothing measures stay NaN.
+Member 0 is the measured window itself.  Levels that nothing measures stay NaN.  A method
+may draw the gains wider than ``noise.gain_rel`` (``gain_scale``) and the velocities'
+increments no rougher than the accelerations allow (``velocity_from_acceleration``); the
+equation-error route does both (:class:`~pier_monitor.core.identify.methods.EquationErrorMethod`).
 """
 
 from __future__ import annotations
@@ -48,7 +51,8 @@ def correlated_noise(rng: np.random.Generator, t_len: int, sigma: np.ndarray,
     return out * sigma
 
 
-def _perturbed(window: MeasuredWindow, rng: np.random.Generator) -> MeasuredWindow:
+def _perturbed(window: MeasuredWindow, rng: np.random.Generator, gain_scale: float = 1.0,
+               velocity_from_acceleration: bool = False) -> MeasuredWindow:
     noise, cov = window.noise, window.coverage
     t_len, n = window.a.shape
 
@@ -57,20 +61,24 @@ def _perturbed(window: MeasuredWindow, rng: np.random.Generator) -> MeasuredWind
 
     ag = window.ag + (sd(noise.ag) if np.isfinite(noise.ag) else 0.0) * rng.standard_normal(t_len)
     a = window.a + sd(noise.a) * rng.standard_normal((t_len, n))
-    v = window.v + correlated_noise(rng, t_len, noise.v, noise.dv)
+    dv = noise.dv
+    if velocity_from_acceleration:  # increments no rougher than the accelerations allow
+        dv = np.fmin(dv, sd(noise.a) * window.dt)
+    v = window.v + correlated_noise(rng, t_len, noise.v, dv)
     x = window.x + correlated_noise(rng, t_len, noise.x, noise.dx)
     moments = window.moments
     if moments is not None:
         moments = moments + sd(noise.f) * rng.standard_normal((t_len, n))
-    if noise.gain_rel > 0:
-        eps_a = noise.gain_rel * rng.standard_normal(n)
-        eps_x = noise.gain_rel * rng.standard_normal(n)
+    if gain_scale > 0 and noise.gain_rel > 0:
+        eps_a = gain_scale * noise.gain_rel * rng.standard_normal(n)
+        eps_x = gain_scale * noise.gain_rel * rng.standard_normal(n)
         a = a + eps_a * (a + ag[:, None])  # level accelerometers scaled, foundation the reference
         x = np.where(cov.displacement, x * (1.0 + eps_x), x)
     return dataclasses.replace(window, ag=ag, a=a, v=v, x=x, moments=moments)
 
 
-def member_windows(window: MeasuredWindow, members: int, seed: int = 0
+def member_windows(window: MeasuredWindow, members: int, seed: int = 0, *,
+                   gain_scale: float = 1.0, velocity_from_acceleration: bool = False
                    ) -> list[MeasuredWindow]:
     """The windows of ``members`` members: the measured one, then perturbed copies.
 
@@ -82,9 +90,15 @@ def member_windows(window: MeasuredWindow, members: int, seed: int = 0
         Number of members ``M`` (1: the measured window alone).
     seed : int
         Seed of the perturbations.
+    gain_scale : float
+        The gains are drawn with ``gain_scale · noise.gain_rel`` (0: none).
+    velocity_from_acceleration : bool
+        The velocities' one-sample increment noise at most ``noise.a · Δt`` (a fused
+        velocity's increments are the measured accelerations'), instead of ``noise.dv``.
     """
     rng = np.random.default_rng(seed)
-    return [window] + [_perturbed(window, rng) for _ in range(members - 1)]
+    return [window] + [_perturbed(window, rng, gain_scale, velocity_from_acceleration)
+                       for _ in range(members - 1)]
 
 
 @dataclass(frozen=True)
