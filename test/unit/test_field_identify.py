@@ -68,8 +68,11 @@ def test_an_ensemble_gives_intervals_and_state_probabilities(accel_case):
 def test_every_field_member_refits_a_perturbed_window_and_decides_its_own_yield():
     """Randomise-then-optimise on the field route: member 0 is the fit itself, the others
     refit windows perturbed as the sensors allow, each deciding whether its springs yielded.
-    Table-1 pier, accelerometers only, strong shaking: section 1 is far beyond yield, the
-    upper sections stay elastic, and section 2's evidence is weaker: the members disagree."""
+    Table-1 pier, accelerometers only, strong shaking: sections 1 and 2 are far beyond yield
+    (true DF 3.19, 2.23) and every member says so (weighed against the fit's chi-square, not
+    the member's own, which the perturbations raise: before, the members disagreed on
+    section 2); section 3 (true DF 0.85) is near yield, and a member may call it yielded;
+    the upper sections stay elastic in every member."""
     from pier_monitor.core.identify.field import fit_field
 
     window, truth, theta = field_case("table1", "accel", False, "strong", 0)
@@ -81,8 +84,10 @@ def test_every_field_member_refits_a_perturbed_window_and_decides_its_own_yield(
     p_yield = ens.yielded.mean(axis=0)
     df_true = _true_df(truth, theta)
     assert df_true[0] > 3 and p_yield[0] == 1.0
-    assert np.all(df_true[2:] < 1) and np.all(p_yield[2:] == 0.0)
-    assert 0.0 < p_yield[1] < 1.0  # the members' own decisions differ
+    assert df_true[1] > 2 and p_yield[1] == 1.0
+    assert np.all(df_true[2:] < 1) and p_yield[2] <= 1 / 9 and np.all(p_yield[3:] == 0.0)
+    # the yielded members' DFs of section 2 hold the truth
+    assert ens.ductility[:, 1].min() < df_true[1] < ens.ductility[:, 1].max()
     # the members differ by the data, not by a start: every k1 moves; that of the yielded
     # section by a few percent (the fit's residuals, not only the sensors' noise, perturb
     # the members), those of springs the data say little about (the elastic upper ones) as
@@ -128,3 +133,32 @@ def test_residual_surrogates_keep_level_spectrum_and_cross_correlation():
     np.testing.assert_allclose(np.mean(sur[:, 0] * sur[:, 1]), np.mean(res[:, 0] * res[:, 1]),
                                rtol=1e-9)
     assert np.corrcoef(sur[:, 0], res[:, 0])[0, 1] < 0.5
+
+
+def test_members_decide_yield_against_the_fits_model_error_so_a_just_yielded_df_is_covered():
+    """A member's data carry the perturbations drawn on purpose (noise, gains, the fit's own
+    residuals times ``residual_scale``), which raise its remaining chi-square about threefold;
+    its yield test weighs the gain of the yield branch against the fit's chi-square (the
+    model error of the data themselves), not against its own.  E-Defense pier,
+    accelerometers only, a drawn case of the held-out suite's kind on a tuning seed (624, El
+    Centro record): section 2 just yielded (true DF 1.34).  Weighed against the members' own
+    chi-square, 5 of 32 members kept its yield and its 90 % DF interval was [1.00, 1.29],
+    short of the truth; now most members yield and the interval holds it."""
+    from pier_monitor.bench_heldout import heldout_case
+    from pier_monitor.core.identify.field import fit_field
+    from pier_monitor.core.identify.uncertainty import summarize_members
+
+    window, truth, true_df, yielded, _ = heldout_case("edefense", "accel", 624)
+    assert yielded[1] and 1.3 < true_df[1] < 1.4 and not yielded[2:].any()
+    fit = fit_field(window, members=32, seed=624)
+    ens = fit.members
+    assert fit.yielded[1]
+    p_yield = ens.yielded.mean(axis=0)
+    assert p_yield[0] == 1.0 and p_yield[1] >= 0.5 and np.all(p_yield[2:] == 0.0)
+    u = summarize_members(ens.params, ens.ductility, ens.yielded)
+    df = u[1].ductility_factor
+    assert df.lo <= true_df[1] <= df.hi
+    assert df.hi - df.lo < 0.6  # an interval, not everything
+    # the well-identified section 1 (true DF 2.63) stays narrow and right
+    assert u[0].ductility_factor.lo <= true_df[0] <= u[0].ductility_factor.hi
+    assert u[0].ductility_factor.hi - u[0].ductility_factor.lo < 0.15
