@@ -178,15 +178,7 @@ def loaded_by(module: str) -> tuple[set[str], set[str]]:
     return seen, third
 
 
-STDLIB = {
-    "__future__", "argparse", "array", "ast", "collections", "concurrent", "contextlib",
-    "dataclasses",
-    "datetime", "enum", "functools", "glob", "hashlib", "importlib", "io", "itertools", "json",
-    "logging", "math", "multiprocessing", "numbers", "os", "pathlib", "platform", "queue", "re",
-    "selectors",
-    "shutil", "signal", "struct", "subprocess", "sys", "tempfile", "threading", "time",
-    "typing", "warnings", "zipfile",
-}
+STDLIB = set(sys.stdlib_module_names)
 
 
 def violations(module: str, imports: tuple[Import, ...]) -> list[str]:
