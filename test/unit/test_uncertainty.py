@@ -300,3 +300,27 @@ def test_a_malformed_uncertainty_in_result_json_is_a_report_error(tmp_path: Path
     (tmp_path / "result.json").write_text(json.dumps(doc))
     with pytest.raises(ReportError, match="result.json: cannot read"):
         load_result(tmp_path)
+
+
+def test_df_interval_of_a_yielded_section_is_never_narrower_than_its_resolution():
+    """Members that agree to 1e-4 on a yielded section's DF (a fully measured window) get
+    the DF's resolution, ±1.5 %; a wider interval and a section that did not yield keep
+    their own."""
+    from pier_monitor.core.identify.uncertainty import DF_RESOLUTION, with_df_resolution
+
+    rng = np.random.default_rng(0)
+    m = 16
+    params = np.tile([1e9, 1e8, 1e6, 1e6], (m, 3, 1)) * (1 + 1e-4 * rng.standard_normal((m, 3, 4)))
+    ductility = np.column_stack([2.0 * (1 + 1e-4 * rng.standard_normal(m)),
+                                 1.6 * (1 + 0.1 * rng.standard_normal(m)),
+                                 np.full(m, 0.7)])
+    yielded = np.column_stack([np.ones(m, bool), np.ones(m, bool), np.zeros(m, bool)])
+    raw = summarize_members(params, ductility, yielded)
+    out = with_df_resolution(raw, ductility[0], yielded[0])
+    assert DF_RESOLUTION == 0.015
+    s0 = out[0].ductility_factor
+    assert raw[0].ductility_factor.hi - raw[0].ductility_factor.lo < 1e-3
+    assert s0.lo == pytest.approx(ductility[0, 0] * 0.985) and s0.hi == pytest.approx(ductility[0, 0] * 1.015)
+    assert out[1] == raw[1]  # members spread by 10 %: wider than the floor
+    assert out[2] == raw[2]  # not yielded: its DF is a bound
+    assert out[0].k1 == raw[0].k1 and out[0].p_state == raw[0].p_state

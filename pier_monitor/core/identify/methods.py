@@ -48,7 +48,7 @@ from pier_monitor.core.identify.field import FieldFit, FieldSettings, _phase_ran
 from pier_monitor.core.identify.field_families import fit_field_families
 from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
 from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
-                                                    summarize_members)
+                                                    summarize_members, with_df_resolution)
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import angle_matrix
@@ -782,6 +782,8 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         masked = d.params.copy()
         masked[..., 1:3] = np.where(d.yielded[..., None], masked[..., 1:3], np.nan)
         uncertainty = summarize_members(masked[kept], d.ductility[kept], d.yielded[kept])
+        # the fit's own DF (member 0), with its resolution that no member shows
+        uncertainty = with_df_resolution(uncertainty, d.ductility[0], d.yielded[0])
         p_overall = overall_state_probabilities(d.ductility, d.yielded)
     yielded, yield_angles = out.yielded, None
     rc_family = out.family is not None and out.family.family != "bilinear"
