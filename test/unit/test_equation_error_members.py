@@ -6,6 +6,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from dataclasses import replace
+
 import numpy as np
 
 from pier_monitor.core.identify.damage import DamageState, decide_state, ductility_factors
@@ -83,7 +85,12 @@ def test_members_alone_never_make_an_elastic_section_damaged():
     state, reasons = decide_state(1.0, False, u)
     assert state == DamageState.SUSPICIOUS
     assert reasons == ("may have yielded (P(yielded) 0.75 of 16 members)",)
+    # where the fit yielded, the most probable state over the members stands while the DF
+    # is identified; this DF interval (±40 %, reaching 0.9) is not, so it is not damaged
     state, _ = decide_state(1.6, True, u)
+    assert state == DamageState.SUSPICIOUS
+    narrow = replace(u, ductility_factor=Spread(1.6, 0.05, 1.52, 1.7))
+    state, _ = decide_state(1.6, True, narrow)
     assert state == DamageState.DAMAGED
 
 

@@ -324,3 +324,25 @@ def test_df_interval_of_a_yielded_section_is_never_narrower_than_its_resolution(
     assert out[1] == raw[1]  # members spread by 10 %: wider than the floor
     assert out[2] == raw[2]  # not yielded: its DF is a bound
     assert out[0].k1 == raw[0].k1 and out[0].p_state == raw[0].p_state
+
+
+def test_a_poorly_identified_df_never_makes_a_section_damaged():
+    """Members spread from DF 1 to 1.8 (±30 % and more), 40 % of them past 1.5: the most
+    probable state is damaged, but the DF is poorly identified and its interval reaches
+    below 1.5, so the section is suspicious, with the reason; members spread as widely but
+    all past 1.5 keep it damaged."""
+    from pier_monitor.core.identify.damage import decide_state
+
+    m = 20
+    params = np.tile([1e9, 1e8, 1e6, 1e6], (m, 1, 1))
+    yielded = np.ones((m, 1), bool)
+    low = np.concatenate([np.full(6, 1.0), np.full(6, 1.3), np.linspace(1.55, 1.9, 8)])
+    u_low = summarize_members(params, low[:, None], yielded)[0]
+    assert u_low.most_probable_state == DamageState.DAMAGED
+    state, reasons = decide_state(1.45, True, u_low)
+    assert state == DamageState.SUSPICIOUS
+    assert any("DF poorly identified (90 % interval [1.00, 1." in r for r in reasons)
+    high = np.linspace(1.6, 3.4, m)
+    u_high = summarize_members(params, high[:, None], yielded)[0]
+    state, reasons = decide_state(2.4, True, u_high)
+    assert state == DamageState.DAMAGED and not any("poorly" in r for r in reasons)

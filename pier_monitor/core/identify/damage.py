@@ -249,6 +249,12 @@ def decide_state(ductility_factor: float, yielded: bool,
                  else math.nan)
         df = replace(df, mean=df.mean * scale, std=df.std * scale, lo=df.lo * scale,
                      hi=df.hi * scale)
+    if (state == DamageState.DAMAGED and df.lo < DAMAGED_DF
+            and not df.relative_half_width() <= IDENTIFIABILITY_LIMITS["DF"]):
+        # a poorly identified DF never drives a state: damaged only on an interval past 1.5
+        state = DamageState.SUSPICIOUS
+        reasons.append(f"DF poorly identified (90 % interval [{df.lo:.2f}, {df.hi:.2f}]): "
+                       "not called damaged on it")
     crossed = [t for t in (SUSPICIOUS_DF, DAMAGED_DF) if df.straddles(t)]
     if crossed and state == DamageState.INTACT:
         state = DamageState.SUSPICIOUS
