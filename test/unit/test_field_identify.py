@@ -118,14 +118,14 @@ def test_residual_surrogates_keep_level_spectrum_and_cross_correlation():
     """The members' residual perturbations: a phase-randomised copy of the fit's residuals has
     their amplitude spectrum per channel (so their RMS) and their cross-correlation at lag 0,
     yet is a different series."""
-    from pier_monitor.core.identify.field import _phase_randomised
+    from pier_monitor.core.identify.ensemble import phase_randomised
 
     rng = np.random.default_rng(3)
     t = np.arange(2000) * 0.01
     base = np.sin(2 * np.pi * 0.3 * t) + 0.3 * rng.standard_normal(t.size)
     res = np.column_stack([base, 0.5 * base + 0.1 * rng.standard_normal(t.size)])
     res -= res.mean(axis=0)
-    sur = _phase_randomised(np.random.default_rng(0), res)
+    sur = phase_randomised(np.random.default_rng(0), res)
     np.testing.assert_allclose(np.abs(np.fft.rfft(sur, axis=0)),
                                np.abs(np.fft.rfft(res, axis=0)), rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(np.sqrt(np.mean(sur ** 2, axis=0)),

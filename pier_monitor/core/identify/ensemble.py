@@ -29,7 +29,7 @@ import numpy as np
 
 from pier_monitor.core.ingest.window import MeasuredWindow
 
-__all__ = ["EnsembleDraws", "member_windows", "correlated_noise"]
+__all__ = ["EnsembleDraws", "member_windows", "correlated_noise", "phase_randomised"]
 
 
 def correlated_noise(rng: np.random.Generator, t_len: int, sigma: np.ndarray,
@@ -49,6 +49,20 @@ def correlated_noise(rng: np.random.Generator, t_len: int, sigma: np.ndarray,
     for k in range(1, t_len):
         out[k] = rho * out[k - 1] + scale * xi[k]
     return out * sigma
+
+
+def phase_randomised(rng: np.random.Generator, res: np.ndarray) -> np.ndarray:
+    """A surrogate of the residuals ``res`` (T, K): the same amplitude spectrum per channel
+    (so the same level and correlation in time), the phases drawn anew, the same phase
+    shifts for every channel (so the channels' cross-correlation is kept too)."""
+    if res.size == 0:
+        return res
+    spec = np.fft.rfft(res, axis=0)
+    phase = np.exp(2j * np.pi * rng.random(spec.shape[0]))
+    phase[0] = 1.0
+    if res.shape[0] % 2 == 0:
+        phase[-1] = 1.0
+    return np.fft.irfft(spec * phase[:, None], n=res.shape[0], axis=0)
 
 
 def _perturbed(window: MeasuredWindow, rng: np.random.Generator, gain_scale: float = 1.0,

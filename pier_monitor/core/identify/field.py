@@ -47,7 +47,7 @@ from scipy import optimize
 from pier_monitor.core._blas import single_blas_thread
 from pier_monitor.core.errors import IdentificationError
 from pier_monitor.core.identify.damage import member_ductility
-from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows
+from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import robust_increments
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import SpringParameters
@@ -611,20 +611,6 @@ def _fit_residuals(pb: _FieldProblem, p: np.ndarray, eps: np.ndarray,
     return out[0], out[1]
 
 
-def _phase_randomised(rng: np.random.Generator, res: np.ndarray) -> np.ndarray:
-    """A surrogate of the residuals ``res`` (T, K): the same amplitude spectrum per channel
-    (so the same level and correlation in time), the phases drawn anew, the same phase
-    shifts for every channel (so the channels' cross-correlation is kept too)."""
-    if res.size == 0:
-        return res
-    spec = np.fft.rfft(res, axis=0)
-    phase = np.exp(2j * np.pi * rng.random(spec.shape[0]))
-    phase[0] = 1.0
-    if res.shape[0] % 2 == 0:
-        phase[-1] = 1.0
-    return np.fft.irfft(spec * phase[:, None], n=res.shape[0], axis=0)
-
-
 def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _FieldProblem,
                        sol: optimize.OptimizeResult,
                        box: tuple[np.ndarray, np.ndarray, np.ndarray], members: int, seed: int,
@@ -660,9 +646,10 @@ def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _Fie
     The noise model knows the sensors' noise, drift and gains, not their azimuth, tilt or
     bias errors nor the model's own error, and members perturbed by it alone were far too
     alike.  Each member's data are therefore also perturbed by the fit's own residuals
-    (``residuals``, :func:`_fit_residuals`): a phase-randomised copy (:func:`_phase_randomised`:
-    the residuals' spectrum, so their level and correlation in time, and their
-    cross-correlation between levels) times ``residual_scale``, each channel at least at
+    (``residuals``, :func:`_fit_residuals`): a phase-randomised copy
+    (:func:`~pier_monitor.core.identify.ensemble.phase_randomised`: the residuals'
+    spectrum, so their level and correlation in time, and their cross-correlation between
+    levels) times ``residual_scale``, each channel at least at
     the misfit the likelihood assumes.  Where the residuals exceed what the likelihood
     expects, the members spread by as much (the Birge ratio, the noise estimated from the
     residuals); ``residual_scale`` above one stands for the part of a systematic error that
@@ -742,9 +729,9 @@ def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _Fie
             pm = _FieldProblem(w, settings)
             pm.set_prior(pb.prior_mean + finite_sd * rng.standard_normal(pb.prior_mean.shape))
             if residuals is not None:
-                pm.x_int = pm.x_int + pm.detrend(_phase_randomised(rng_res, residuals[0]))
+                pm.x_int = pm.x_int + pm.detrend(phase_randomised(rng_res, residuals[0]))
                 if pm.disp.size:
-                    pm.x_meas = pm.x_meas + _phase_randomised(rng_res, residuals[1])
+                    pm.x_meas = pm.x_meas + phase_randomised(rng_res, residuals[1])
 
             z = _gauss_newton(
                 lambda zv, pm=pm: pm.residual(zv[:_COLUMNS * n].reshape(n, _COLUMNS),

@@ -41,10 +41,10 @@ from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
                                                member_ductility, overall_state, with_family,
                                                with_identifiability)
-from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows
+from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
-from pier_monitor.core.identify.field import FieldFit, FieldSettings, _phase_randomised, fit_field
+from pier_monitor.core.identify.field import FieldFit, FieldSettings, fit_field
 from pier_monitor.core.identify.field_families import fit_field_families
 from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
 from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
@@ -536,7 +536,7 @@ class EquationErrorMethod:
       fit's ``k1`` there is as far off (on the held-out tuning cases, 20-180 %); the
       members spread as much, and those sections' ``k1`` is flagged poorly identified;
     * the restoring moments off by a phase-randomised copy
-      (:func:`~pier_monitor.core.identify.field._phase_randomised`) of the fit's own moment
+      (:func:`~pier_monitor.core.identify.ensemble.phase_randomised`) of the fit's own moment
       residuals (:func:`moment_residuals`) times ``member_residual_scale``: what the springs do
       not explain, with its spectrum and its correlation between sections.
 
@@ -579,7 +579,7 @@ class EquationErrorMethod:
         rng_res = np.random.default_rng([settings.seed, 2])  # the residuals' surrogates
         for w in windows[1:]:
             if residuals is not None:
-                w = with_moment_perturbation(w, _phase_randomised(rng_res, residuals))
+                w = with_moment_perturbation(w, phase_randomised(rng_res, residuals))
             fit = fit_equation_error(w.geometry, w.x, w.v, w.a, w.ag, w.design,
                                      moments=w.moments, yield_score=own.yield_score)
             _append_member(fits, thetas, moments, w, fit, b)
