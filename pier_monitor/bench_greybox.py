@@ -36,7 +36,7 @@ import numpy as np
 
 from pier_monitor.bench_heldout import identify_default, true_ductility
 from pier_monitor.core.errors import SolverError
-from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
+from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
 from pier_monitor.core.identify.families import fit_families, moment_noise_variance
 from pier_monitor.core.model.link_model import angle_matrix
 from pier_monitor.core.synthetic.field import field_case_recording
@@ -95,8 +95,7 @@ def greybox_run(store: ResultsStore, hyst: str, pier: str, shaking: str, seed: i
     started = time.perf_counter()
     b = angle_matrix(window.geometry.section_heights_m)
     theta, theta_dot = window.x @ b.T, window.v @ b.T
-    fit = fit_equation_error(window.geometry, window.x, window.v, window.a, window.ag,
-                             window.design, moments=window.moments)
+    fit = fit_window(window)
     g = (window.moments if window.moments is not None
          else inertia_moments(window.geometry, window.a, window.ag))
     noise_var = moment_noise_variance(window.geometry, window.noise, fit.params.k1,

@@ -31,7 +31,7 @@ import torch
 from pier_monitor.core.errors import IdentificationError
 from pier_monitor.core.identify.damage import member_ductility
 from pier_monitor.core.identify.ensemble import member_windows
-from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments, yield_test
+from pier_monitor.core.identify.equation_error import fit_window, inertia_moments, yield_test
 from pier_monitor.core.identify.methods import (TERMS, EnsembleDraws, IdentifySettings,
                                                 MethodOutput, Progress)
 from pier_monitor.core.identify.uncertainty import MemberResponses
@@ -326,8 +326,7 @@ def _member_starts(windows: list[MeasuredWindow], settings: IdentifySettings
                 np.ones((len(windows), windows[0].n_levels), dtype=bool))
     inits, yielded = [], []
     for w in windows:
-        fit = fit_equation_error(w.geometry, w.x, w.v, w.a, w.ag, w.design, moments=w.moments,
-                                 yield_score=settings.equation_error_settings.yield_score)
+        fit = fit_window(w, settings.equation_error_settings.yield_score)
         inits.append(fit.params)
         yielded.append(fit.yielded)
     return inits, np.stack(yielded)

@@ -29,10 +29,11 @@ from scipy import linalg, optimize
 
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.link_model import angle_matrix, check_response_array
 
-__all__ = ["SpringFit", "EquationErrorFit", "inertia_moments", "fit_equation_error", "yield_test",
-           "robust_increments"]
+__all__ = ["SpringFit", "EquationErrorFit", "inertia_moments", "fit_equation_error",
+           "fit_window", "yield_test", "robust_increments"]
 
 
 @dataclass(frozen=True)
@@ -325,3 +326,10 @@ def fit_equation_error(geometry: PierGeometry, x: np.ndarray, v: np.ndarray, a: 
     params = SpringParameters(np.array([f.k1 for f in fits]), np.array([f.k2 for f in fits]),
                               np.array([f.fy for f in fits]), np.array([f.c for f in fits]))
     return EquationErrorFit(springs=fits, params=params)
+
+
+def fit_window(window: MeasuredWindow, yield_score: float = 50.0) -> EquationErrorFit:
+    """:func:`fit_equation_error` of a measured window: its responses, foundation motion,
+    measured moments where it has them, and its design values as the start."""
+    return fit_equation_error(window.geometry, window.x, window.v, window.a, window.ag,
+                              window.design, moments=window.moments, yield_score=yield_score)

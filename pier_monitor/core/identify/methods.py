@@ -42,7 +42,7 @@ from pier_monitor.core.identify.damage import (IdentificationResult, build_secti
                                                member_ductility, overall_state, with_family,
                                                with_identifiability)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
-from pier_monitor.core.identify.equation_error import fit_equation_error, inertia_moments
+from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
 from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
 from pier_monitor.core.identify.field import FieldFit, FieldSettings, fit_field
 from pier_monitor.core.identify.field_families import fit_field_families
@@ -565,9 +565,7 @@ class EquationErrorMethod:
             thetas, moments = [first.reproduced.theta], [first.reproduced.moment]
             fit0 = None
         else:
-            fit0 = fit_equation_error(window.geometry, window.x, window.v, window.a, window.ag,
-                                      window.design, moments=window.moments,
-                                      yield_score=own.yield_score)
+            fit0 = fit_window(window, own.yield_score)
             fits, thetas, moments = [], [], []
             _append_member(fits, thetas, moments, window, fit0, b)
         residuals = None
@@ -580,8 +578,7 @@ class EquationErrorMethod:
         for w in windows[1:]:
             if residuals is not None:
                 w = with_moment_perturbation(w, phase_randomised(rng_res, residuals))
-            fit = fit_equation_error(w.geometry, w.x, w.v, w.a, w.ag, w.design,
-                                     moments=w.moments, yield_score=own.yield_score)
+            fit = fit_window(w, own.yield_score)
             _append_member(fits, thetas, moments, w, fit, b)
         params0 = SpringParameters(*fits[0][0].T)
         yielded0 = fits[0][1]
