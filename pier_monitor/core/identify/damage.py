@@ -187,6 +187,12 @@ def k1_loss_reason(change_pct: float, interval: K1ChangeInterval, baseline: str)
             "cracking")
 
 
+def _too_wide(spread: Spread, name: str) -> bool:
+    """Whether the 90 % interval ``spread`` of quantity ``name`` is wider than its
+    :data:`IDENTIFIABILITY_LIMITS` (an interval of one member or none, NaN, is too wide)."""
+    return not spread.relative_half_width() <= IDENTIFIABILITY_LIMITS[name]
+
+
 def _may_have_yielded(yielded: bool, uncertainty: SectionUncertainty | None) -> bool:
     """Reported as not yielded, but the ensemble gives a probability of at least P_YIELD_LOW."""
     return (not yielded and uncertainty is not None and uncertainty.members >= 2
@@ -249,8 +255,7 @@ def decide_state(ductility_factor: float, yielded: bool,
                  else math.nan)
         df = replace(df, mean=df.mean * scale, std=df.std * scale, lo=df.lo * scale,
                      hi=df.hi * scale)
-    if (state == DamageState.DAMAGED and df.lo < DAMAGED_DF
-            and not df.relative_half_width() <= IDENTIFIABILITY_LIMITS["DF"]):
+    if state == DamageState.DAMAGED and df.lo < DAMAGED_DF and _too_wide(df, "DF"):
         # a poorly identified DF never drives a state: damaged only on an interval past 1.5
         state = DamageState.SUSPICIOUS
         reasons.append(f"DF poorly identified (90 % interval [{df.lo:.2f}, {df.hi:.2f}]): "
@@ -898,13 +903,12 @@ def poorly_identified(section: SectionResult, ends_measured: bool = True) -> tup
         return ()
     spreads = {"k1": u.k1, "k2": u.k2, "fy": u.fy, "c": u.c, "DF": u.ductility_factor}
     out = []
-    for name, limit in IDENTIFIABILITY_LIMITS.items():
+    for name in IDENTIFIABILITY_LIMITS:
         if name in ("k2", "fy") and not section.yielded:
             continue
-        width = spreads[name].relative_half_width()
         unmeasured_end = not ends_measured and (
             name == "k1" or (name == "DF" and (section.yielded or u.p_yielded >= P_YIELD_LOW)))
-        if not width <= limit or unmeasured_end:
+        if _too_wide(spreads[name], name) or unmeasured_end:
             out.append(name)  # NaN (an interval of one member or none) is no interval
     return tuple(out)
 
