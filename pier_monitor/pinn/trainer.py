@@ -349,11 +349,10 @@ def _start(problem: _PinnProblem, inits: list[SpringParameters], yielded0: np.nd
     start = torch.where(start > 0, start, torch.ones_like(start))
     held = torch.as_tensor(~yielded0, device=device)  # (M, N)
     start[:, 2] = torch.where(held, problem.f_cap, start[:, 2])
-    ref = start
-    free = torch.ones_like(ref)
+    free = torch.ones_like(start)
     free[:, 1] = torch.where(held, 0.0, 1.0)
     free[:, 2] = torch.where(held, 0.0, 1.0)
-    return ref, free
+    return start, free
 
 
 def _paper_rule_update(problem: _PinnProblem, logp: torch.Tensor, ref: torch.Tensor,
