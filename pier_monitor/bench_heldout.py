@@ -40,12 +40,12 @@ from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.ingest import ingest_recording
 from pier_monitor.core.model.config import SpringParameters, load_config
 from pier_monitor.core.resources import find_config_file
-from pier_monitor.core.synthetic.field import field_pier, field_recording
+from pier_monitor.core.synthetic.field import field_case_recording, field_pier, field_recording
 from pier_monitor.core.synthetic.shaking_table import Scenario
 from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 
-__all__ = ["true_ductility", "identify_default", "HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
+__all__ = ["true_ductility", "identify_default", "identify_rc_case", "HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
            "summarize_heldout"]
 
 #: Seeds of the suite; nothing in the product was chosen on them.
@@ -92,6 +92,22 @@ def identify_default(window, store: ResultsStore, seed: int):
     started = time.perf_counter()
     outcome = identify_window(window, IdentifySettings(seed=seed), store, figures=False)
     return outcome, time.perf_counter() - started
+
+
+def identify_rc_case(store: ResultsStore, make_window, prefix: str, hyst: str, pier: str,
+                     layout: str, shaking: str, seed: int):
+    """One test-bed case (:func:`~pier_monitor.core.synthetic.field.field_case_recording`,
+    springs ``hyst``) windowed by ``make_window(syn, name)`` and identified by
+    :func:`identify_default` into ``store``, its event named ``{prefix}_{hyst}_{pier}_{layout}_
+    {shaking}_{seed}``: ``(window, true_df, yielded, outcome, wall_s)``.  The test-bed's own
+    simulation may raise :class:`~pier_monitor.core.errors.SolverError`."""
+    syn = field_case_recording(pier, layout, False, shaking, seed, hysteresis=hyst)
+    window, _, _ = make_window(syn, f"{pier}/{layout}/{shaking}/{seed}/{hyst}")
+    window = dataclasses.replace(
+        window, event_id=f"{prefix}_{hyst}_{pier}_{layout}_{shaking}_{seed}")
+    true_df, yielded = true_ductility(syn.truth.runs[0])
+    outcome, wall = identify_default(window, store, seed)
+    return window, true_df, yielded, outcome, wall
 
 
 def heldout_case(pier: str, layout: str, seed: int, hysteresis: str = "bilinear"):
