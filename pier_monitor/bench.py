@@ -19,7 +19,8 @@ import numpy as np
 
 from pier_monitor.bags import read_bag
 from pier_monitor.bench_greybox import greybox_suite
-from pier_monitor.bench_heldout import heldout_suite, identify_default, identify_rc_case
+from pier_monitor.bench_heldout import (heldout_pinn_suite, heldout_suite, identify_default,
+                                        identify_rc_case)
 from pier_monitor.bench_live import bench_latency
 from pier_monitor.bench_fiber import bench_fiber
 from pier_monitor.store import ResultsStore
@@ -851,6 +852,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "rc_sequence": lambda: bench_rc_sequence(),
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
+    "heldout_pinn": lambda: heldout_pinn_suite(),
     "fiber": lambda: bench_fiber(),
     "greybox": lambda: greybox_suite(_field_window),
 }
