@@ -22,7 +22,13 @@ change against the first).  The design values are what a designer would give: ``
 gross-section ``Ec Ig / h`` per section, ``k2 = k1 / 10``, ``fy`` the nominal moment of each
 section, ``c`` stiffness-proportional for 2 % on the design's first mode.
 
-Scored per event and section: the reported state, the DF against the true idealised DF, the
+Scored per event and section: the reported state, the DF against the true idealised DF
+(``true_df``, RC_NOTES: peak rotation so far over ``θ'_y M_n / M'_y``) and against the truth on
+the product's own definition (``true_df_equal_energy``: over the equal-energy idealised yield
+rotation of the section's pushover skeleton up to the peak so far, elastic branch through first
+yield; the event that just yields a section never reaches ``M_n``, so this one is the larger),
+the yield rotations behind both (identified ``yield_rotation_rad``, true first yield, both true
+idealisations) and the peak rotations, the
 misfit and whether the result is unreliable, the family chosen, the ``k1`` change against the
 column's small-amplitude stiffness change over the shaking, and the headline checks: never
 ``intact`` where the bars yielded at a DF >= 1.5 (a miss), never ``damaged`` where the bars
@@ -173,6 +179,25 @@ def bench_fiber(layouts: tuple[str, ...] = _LAYOUTS, seed: int = FIBER_SEED,
     return [*out, summary]
 
 
+def _r(v: float) -> float | None:
+    v = float(v)
+    return float(f"{v:.4g}") if np.isfinite(v) else None
+
+
+def _equal_energy_truth(sec, truth: dict[str, Any], i: int) -> dict[str, Any]:
+    """The truth on the product's own definition of the DF (the equal-energy idealisation of
+    the section's skeleton up to the peak so far, :func:`~pier_monitor.core.model.springs.
+    idealised_yield`, applied to the fiber column's pushover skeleton) beside the RC_NOTES
+    one (``θ'_y M_n / M'_y``, ``true_df``)."""
+    if "ductility_factor_equal_energy" not in truth:
+        return {}
+    ee = float(truth["ductility_factor_equal_energy"][i])
+    return {"true_yield_rotation_equal_energy_rad":
+            _r(truth["equal_energy_yield_rotation_rad"][i]),
+            "true_df_equal_energy": round(ee, 3),
+            "df_err_equal_energy_pct": round(100.0 * (float(sec.ductility_factor) / ee - 1.0), 1)}
+
+
 def _score_event(layout: str, k: int, result, truth: dict[str, Any], wall: float,
                  record_s: float) -> dict[str, Any]:
     unreliable = result.overall_state == "unreliable"
@@ -183,7 +208,13 @@ def _score_event(layout: str, k: int, result, truth: dict[str, Any], wall: float
         s = {"section": i + 1, "state": sec.state, "df": round(float(sec.ductility_factor), 3),
              "true_df": round(true_df, 3),
              "df_err_pct": round(100.0 * (float(sec.ductility_factor) / true_df - 1.0), 1),
+             "yield_rotation_rad": _r(sec.yield_angle_rad),
+             "peak_rotation_rad": _r(max(float(sec.max_angle_rad), 0.0)),
+             "true_peak_rotation_rad": _r(truth["peak_rotation_so_far_rad"][i]),
+             "true_first_yield_rotation_rad": _r(truth["first_yield_rotation_rad"][i]),
+             "true_yield_rotation_rad": _r(truth["idealised_yield_rotation_rad"][i]),
              "bar_strain_over_yield": round(float(truth["bar_strain_over_yield_so_far"][i]), 3),
+             **_equal_energy_truth(sec, truth, i),
              "yielded_true": yielded,
              "k1": float(sec.k1),
              "k1_change_pct": (None if sec.k1_change_pct is None

@@ -96,3 +96,67 @@ def test_an_external_principal_response_is_recorded_like_the_link_model():
     with pytest.raises(PierMonitorError, match="hysteresis"):
         generate_recording(config, scenario, seed=3, hysteresis="takeda",
                            principal_response=link_model)
+
+
+def _hand_yield(curve_th: np.ndarray, curve_m: np.ndarray, ty: float, my: float,
+                mn: float) -> fiber.FiberYield:
+    """A FiberYield of one section whose pushover curve is given (no OpenSees)."""
+    one = np.array
+    return fiber.FiberYield(first_yield_moment_Nm=one([my]), nominal_moment_Nm=one([mn]),
+                            first_yield_rotation_rad=one([ty]),
+                            idealised_yield_rotation_rad=one([ty * mn / my]),
+                            yield_extrapolated=one([False]), axial_load_N=one([1e6]),
+                            pushover_rotation_rad=curve_th[:, None],
+                            pushover_moment_Nm=curve_m[:, None])
+
+
+def test_equal_energy_yield_of_the_pushover_is_the_products_definition():
+    """The pushover's skeleton (first yield a corner) bilinearised by equal energy up to the
+    peak: on a trilinear curve, the product's idealised_yield of the same trilinear; below
+    first yield, θ'y; between θ'y and θ'y Mn/M'y for a section that just yielded."""
+    from pier_monitor.core.model.springs import Skeleton, idealised_yield
+
+    # trilinear: uncracked 3e10 to 4 MN·m, cracked to first yield (1.2e-3, 12 MN·m), then
+    # 3e9 N·m/rad; the pushover steps are sampled (signs as OpenSees gives them, negative)
+    th = np.linspace(0.0, 4e-3, 401)[1:]
+    tri = Skeleton(np.array([0.0, 4e6 / 3e10, 1.2e-3]), np.array([0.0, 4e6, 12e6]), 3e9, 1.2e-3)
+    fy = _hand_yield(-th, -tri(th), 1.2e-3, 12e6, 16e6)
+    sk = fy.skeleton(0)
+    assert sk.theta_first_yield == pytest.approx(1.2e-3)
+    assert sk.m_first_yield == pytest.approx(12e6, rel=1e-9)
+    # (the 10 µrad steps cut the cracking corner: 1e-4 of the area)
+    for peak in (0.6e-3, 1.5e-3, 2.2e-3, 3.5e-3, 5e-3):  # 5e-3: beyond the curve, last slope
+        assert fy.equal_energy_yield_rotation(np.array([peak]))[0] == pytest.approx(
+            idealised_yield(tri, peak), rel=1e-4)
+    assert fy.equal_energy_yield_rotation(np.array([0.6e-3]))[0] == pytest.approx(1.2e-3)
+    ee = fy.equal_energy_yield_rotation(np.array([2.2e-3]))[0]
+    assert 1.2e-3 < ee < 1.2e-3 * 16e6 / 12e6
+    assert "pushover_rotation_rad" not in fy.as_dict()
+
+
+def test_equal_energy_yield_needs_the_pushover_curve():
+    from pier_monitor.core.errors import InputDataError
+
+    fy = fiber.FiberYield(*(np.ones(1) for _ in range(4)), yield_extrapolated=np.array([False]),
+                          axial_load_N=np.ones(1))
+    with pytest.raises(InputDataError, match="pushover"):
+        fy.equal_energy_yield_rotation(np.array([1.0]))
+
+
+@requires_ops
+def test_pushover_skeleton_of_the_column_passes_first_yield_and_goes_on():
+    """The column's pushover is recorded past the base's nominal moment (a heavy shaking's
+    peak stays within it) and first yield is a corner of each section's skeleton; the
+    equal-energy yield of the base just past first yield lies between θ'y and θ'y Mn/M'y."""
+    col = FiberColumn()
+    fy = fiber.fiber_yield(col, GEOMETRY)
+    assert np.abs(fy.pushover_rotation_rad[:, 0]).max() >= fiber.PUSHOVER_MAX_ROTATION
+    base = fy.skeleton(0)
+    assert base.m_first_yield == pytest.approx(fy.first_yield_moment_Nm[0], rel=1e-12)
+    # the pushover's own moment at first yield is M'y (within a step)
+    near = np.interp(fy.first_yield_rotation_rad[0], np.abs(fy.pushover_rotation_rad[:, 0]),
+                     np.abs(fy.pushover_moment_Nm[:, 0]))
+    assert near == pytest.approx(fy.first_yield_moment_Nm[0], rel=0.02)
+    peak = 1.8 * fy.first_yield_rotation_rad
+    ee = fy.equal_energy_yield_rotation(peak)
+    assert fy.first_yield_rotation_rad[0] < ee[0] < fy.idealised_yield_rotation_rad[0]

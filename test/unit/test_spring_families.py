@@ -118,6 +118,26 @@ def test_idealised_yield_of_a_takeda_skeleton_by_equal_energy():
     assert idealised_yield(takeda_skeleton(SMALL), 1.1) == pytest.approx(4.02 / 4.0, rel=1e-12)
 
 
+def test_idealised_yield_floor_moves_an_early_takeda_corner_only():
+    """min_yield_fraction: the elastic branch through the skeleton's point at f·Mp where
+    that lies beyond the yield corner (a corner fitted on a smooth cracked curve, with a
+    steep branch after it); a corner whose peak moment stays below My/f keeps its value."""
+    for peak in (1.1, 2.0, 4.0):  # Mp <= 4.6 < 4/0.8: the corner is first yield
+        assert idealised_yield(takeda_skeleton(SMALL), peak, 0.8) == idealised_yield(
+            takeda_skeleton(SMALL), peak)
+    early = takeda_skeleton(TakedaParameters(k0=10.0, mc=1.0, my=4.0, theta_y=1.0, kp=1.5))
+    # θp = 3: Mp = 7, area 0.05 + 2.25 + 11 = 13.3; corner secant 4: (26.6 - 21) / (12 - 7)
+    assert idealised_yield(early, 3.0) == pytest.approx(5.6 / 5.0, rel=1e-12)
+    # floor 0.8·7 = 5.6 at θe = 1 + 1.6/1.5; secant 5.6/θe; equal energy runs past the cap
+    # Mp/k_e = θe/0.8
+    te = 1.0 + 1.6 / 1.5
+    assert idealised_yield(early, 3.0, 0.8) == pytest.approx(te / 0.8, rel=1e-12)
+    assert idealised_yield(early, 0.9, 0.8) == 1.0  # not yielded: the corner itself
+    assert idealised_yield(bilinear_skeleton(1e9, 1e8, 5e6), 1e-2, 0.0) == pytest.approx(5e-3)
+    with pytest.raises(InputDataError, match="min_yield_fraction"):
+        idealised_yield(early, 3.0, 1.0)
+
+
 def test_takeda_parameters_and_histories_are_checked():
     with pytest.raises(InputDataError, match="mc < my"):
         TakedaParameters(k0=10.0, mc=5.0, my=4.0, theta_y=1.0, kp=0.2)

@@ -37,7 +37,11 @@ Ductility factor
 ----------------
 ``DF = θp / θ*`` with ``θp`` the peak ``|θ|`` of the window and ``θ*`` the equal-energy
 idealised yield rotation of the identified skeleton (:func:`~pier_monitor.core.model.springs.
-idealised_yield`), the same definition for every family (``fy/k1`` for the bilinear).  A
+idealised_yield`), the same definition for every family (``fy/k1`` for the bilinear); for the
+Takeda its elastic branch passes no lower than the skeleton's point at
+:data:`~pier_monitor.core.model.springs.TAKEDA_YIELD_PEAK_FRACTION` of the peak moment (the
+Takeda's yield corner fitted to a smooth skeleton is a kink on the cracked curve, below first
+yield).  A
 section yielded in a family only when its fit passes the skeleton's yield point within the
 window and beats the same family held below yield by the BIC (the bilinear held elastic,
 ``k θ + c θ̇``; the Takeda with ``θy >= θp``, :data:`N_PARAMS_UNYIELDED`), the Takeda by
@@ -89,6 +93,7 @@ from pier_monitor.core.model.config import PierGeometry
 from pier_monitor.core.model.link_model import angle_matrix
 from pier_monitor.core.model.springs import (
     TAKEDA_ALPHA,
+    TAKEDA_YIELD_PEAK_FRACTION,
     Skeleton,
     TakedaParameters,
     _bilinear_kernel,
@@ -592,7 +597,8 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
               f"N·m (noise {np.sqrt(s.noise_var):.3g} N·m, n_eff {s.n_eff:.0f})")
 
     peak = np.array([s.peak_rotation for s in sections])
-    ty_id = np.array([idealised_yield(s.fits[family].skeleton, s.peak_rotation)
+    floor = TAKEDA_YIELD_PEAK_FRACTION if family == "takeda" else 0.0
+    ty_id = np.array([idealised_yield(s.fits[family].skeleton, s.peak_rotation, floor)
                       for s in sections])
     yielded = np.array([s.yielded[family] for s in sections])
     # a section that did not yield in the data: its yield rotation is extrapolated, DF <= 1

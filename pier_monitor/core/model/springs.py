@@ -55,6 +55,7 @@ __all__ = [
     "takeda_unloading_stiffness",
     "skeleton",
     "idealised_yield",
+    "TAKEDA_YIELD_PEAK_FRACTION",
 ]
 
 #: The spring families of this module.
@@ -382,7 +383,42 @@ def skeleton(theta: np.ndarray | float, params: TakedaParameters) -> np.ndarray:
     return takeda_skeleton(params)(theta)
 
 
-def idealised_yield(skel: Skeleton, theta_peak: float) -> float:
+#: Lowest point of a fitted Takeda skeleton through which the elastic branch of its idealised
+#: bilinear passes, as a fraction of the moment at the event's peak
+#: (:func:`idealised_yield`'s ``min_yield_fraction``).  An RC section's first bar yield is at
+#: about 0.75-0.8 of its nominal moment (the fiber column of RC_NOTES: 0.755 at the base,
+#: 0.78 above the cut-off), and the peak moment of an event that yields a section is near it.
+#: Where the section's skeleton is smooth the Takeda's yield corner is a least-squares kink on
+#: the cracked curve, not first yield; measured on the fiber column's first shaking (bars at
+#: 3.3x yield, ``fiber`` benchmark, full layout): the corner at 0.66 θ'y and 0.87 M'y, a secant
+#: 33 % stiffer than the true one to first yield, DF 2.34 where the truth is 1.37 (RC_NOTES)
+#: or 1.48 (the same equal-energy idealisation of the column's pushover skeleton); with this
+#: floor 1.46.  Sensitive: 0.78 / 0.82 give 1.56 / 1.39.  The RC test-bed's Takeda springs
+#: (a sharp corner at first yield) keep their corner: their peak moments stay below 1.25 My.
+#:
+#: Chosen on the fiber column, so the ``fiber`` benchmark is no longer held out for the DF.
+#: Validated on cases not used to choose it, the RC test-bed's BWBN (smooth skeleton) springs,
+#: layout full, equation-error route: E-Defense strong, seeds 300 / 301, Takeda family chosen,
+#: base DF 7.94 / 7.90 without the floor, 4.46 / 4.56 with it, truth 3.25 / 3.25 (the second
+#: section's fit stays below its yield point: DF <= 1 either way, truth 1.23); Table-1 strong
+#: (seeds 300-301) and both piers' just-yield shaking (seed 300) choose the bilinear, unchanged
+#: (Table-1's Takeda fit is flat past its corner, Mp = My: the floor leaves it).  The test-bed's
+#: Takeda springs (E-Defense strong 300 / 301 and just-yield 300, Table-1 strong 300): every
+#: section's DF identical with and without the floor.
+TAKEDA_YIELD_PEAK_FRACTION = 0.8
+
+
+def _rotation_at(skel: Skeleton, moment: float) -> float:
+    """Smallest rotation where the (increasing) skeleton reaches ``moment``, rad (inf where
+    it never does)."""
+    if moment <= skel.moment[-1]:
+        return float(np.interp(moment, skel.moment, skel.theta))
+    if skel.final_slope > 0:
+        return float(skel.theta[-1] + (moment - skel.moment[-1]) / skel.final_slope)
+    return float("inf")
+
+
+def idealised_yield(skel: Skeleton, theta_peak: float, min_yield_fraction: float = 0.0) -> float:
     """Equal-energy idealised yield rotation of a skeleton up to a peak rotation, rad.
 
     The idealised bilinear has the secant to first yield ``k_y = S(θ'y)/θ'y`` as its elastic
@@ -401,21 +437,37 @@ def idealised_yield(skel: Skeleton, theta_peak: float) -> float:
     ``θ* = fy/k1`` exactly whatever ``θp`` (the skeleton is its own bilinearisation), so a
     ductility factor ``θp / θ*`` means the same thing for every family.
 
+    With ``min_yield_fraction`` ``f > 0`` (a fitted Takeda skeleton,
+    :data:`TAKEDA_YIELD_PEAK_FRACTION`) the elastic branch is the secant to the skeleton's
+    point at ``max(θ'y, θ(f Mp))`` (at most ``θp``): the first-yield corner of a trilinear fitted
+    to a smooth skeleton sits on the cracked curve below first yield, so the secant to it is too
+    stiff and ``θ*`` too small; a skeleton whose corner is first yield and whose peak moment is
+    below ``My / f`` is unaffected.  The default (0) is the definition itself: the truths
+    (:func:`pier_monitor.core.synthetic.rc.idealised_yield_rotation`, the fiber column's
+    pushover skeleton) use it.
+
     Parameters
     ----------
     skel : Skeleton
         The identified skeleton.
     theta_peak : float
         Peak ``|θ|`` reached, rad (non-negative).
+    min_yield_fraction : float
+        Lowest point of the elastic branch as a fraction of the peak moment, ``[0, 1)``.
     """
     tp = float(theta_peak)
     if not (np.isfinite(tp) and tp >= 0):
         raise InputDataError(f"theta_peak: expected a non-negative rotation, got {theta_peak}")
+    f = float(min_yield_fraction)
+    if not (np.isfinite(f) and 0 <= f < 1):
+        raise InputDataError(f"min_yield_fraction: expected a fraction in [0, 1), got "
+                             f"{min_yield_fraction}")
     ty = skel.theta_first_yield
     if tp <= ty:
         return ty
-    ky = skel.m_first_yield / ty
     mp = float(skel(tp))
+    te = min(max(ty, _rotation_at(skel, f * mp)), tp) if f > 0 else ty
+    ky = float(skel(te)) / te
     den = ky * tp - mp
     # Just past first yield a skeleton stiffer than k_y below yield (the uncracked branch)
     # encloses more area than the elastic triangle and the equal-energy point runs off: cap

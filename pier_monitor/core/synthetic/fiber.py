@@ -26,6 +26,15 @@ change of chord slope at that level, as the identifier's springs see it):
   ``θ'_y = M'_y / k_sec`` with ``k_sec`` its secant at the pushover's largest moment
   (an extrapolation: flagged ``yield_extrapolated``);
 * **DF** = peak rotation / idealised yield rotation;
+* the same two numbers on the definition the product reports
+  (:func:`~pier_monitor.core.model.springs.idealised_yield`): the **equal-energy idealised
+  yield rotation** of the pushover's moment-rotation skeleton of the section up to the peak
+  rotation so far, its elastic branch the secant through first yield ``(θ'_y, M'_y)``, and
+  the DF on it.  The two differ by what the event never revealed: the RC_NOTES idealisation
+  extends the elastic branch to ``M_n``, the equal-energy one ends at the skeleton's moment
+  at the event's peak, below ``M_n`` for a section that just yielded (the pushover is
+  continued past the base's ``M_n`` to rotations of :data:`PUSHOVER_MAX_ROTATION`, so that
+  a heavy shaking's peak stays within the recorded skeleton);
 * **small-amplitude stiffness**: a static probe of the column at rest (forces ∝ mass ×
   height giving a base moment of ``probe_fraction`` × the base ``M'_y``, pushed both ways);
   ``k_n = ΔM_n / Δθ_n`` per section, and the first period of the column (eigen analysis of
@@ -44,7 +53,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -53,6 +62,7 @@ import numpy as np
 from pier_monitor.core.errors import InputDataError, PierMonitorError, SolverError
 from pier_monitor.core.model.config import PierGeometry
 from pier_monitor.core.model.link_model import angle_matrix
+from pier_monitor.core.model.springs import Skeleton, idealised_yield
 
 __all__ = ["FiberColumn", "FiberYield", "FiberTransient", "have_openseespy", "import_ops",
            "fiber_yield", "fiber_transient", "fiber_truth", "elastic_first_period",
@@ -60,6 +70,9 @@ __all__ = ["FiberColumn", "FiberYield", "FiberTransient", "have_openseespy", "im
 
 G = 9.80665
 _CACHE_VERSION = 2
+#: Base spring angle, rad, up to which the pushover's moment-rotation skeleton is recorded
+#: (about 5x the base's idealised yield rotation; the heavy shaking's peak is 0.0066).
+PUSHOVER_MAX_ROTATION = 0.012
 
 
 def import_ops():
@@ -300,9 +313,44 @@ class FiberYield:
     idealised_yield_rotation_rad: np.ndarray
     yield_extrapolated: np.ndarray
     axial_load_N: np.ndarray
+    pushover_rotation_rad: np.ndarray | None = field(default=None, repr=False)
+    pushover_moment_Nm: np.ndarray | None = field(default=None, repr=False)
 
     def as_dict(self) -> dict[str, Any]:
-        return {k: np.asarray(v).tolist() for k, v in asdict(self).items()}
+        """JSON-ready yield quantities (the pushover curves are left out)."""
+        return {k: np.asarray(v).tolist() for k, v in asdict(self).items()
+                if not k.startswith("pushover_")}
+
+    def skeleton(self, section: int) -> Skeleton:
+        """The pushover's moment-rotation skeleton of section ``section`` (0-based): its
+        spring angle and moment at every pushover step (absolute values, the steps where the
+        angle grows), with first yield ``(θ'_y, M'_y)`` as a corner; beyond the last step,
+        the last step's slope.  Raises :class:`InputDataError` without a recorded pushover.
+        """
+        if self.pushover_rotation_rad is None or self.pushover_moment_Nm is None:
+            raise InputDataError("fiber yield: no pushover curve recorded")
+        th = np.abs(np.asarray(self.pushover_rotation_rad, dtype=float)[:, section])
+        mo = np.abs(np.asarray(self.pushover_moment_Nm, dtype=float)[:, section])
+        keep = th > np.maximum.accumulate(np.concatenate(([0.0], th[:-1])))
+        th, mo = np.concatenate(([0.0], th[keep])), np.concatenate(([0.0], mo[keep]))
+        ty = float(self.first_yield_rotation_rad[section])
+        my = float(self.first_yield_moment_Nm[section])
+        slope = max(float((mo[-1] - mo[-2]) / (th[-1] - th[-2])), 0.0) if th.size > 2 else 0.0
+        j = int(np.searchsorted(th, ty))
+        if j < th.size and np.isclose(th[j], ty, rtol=1e-12, atol=0.0):
+            mo[j] = my
+        else:  # (an extrapolated θ'_y of a section the pushover did not yield may lie beyond)
+            th, mo = np.insert(th, j, ty), np.insert(mo, j, my)
+        return Skeleton(th, mo, slope, ty)
+
+    def equal_energy_yield_rotation(self, peak_rotation: np.ndarray) -> np.ndarray:
+        """Equal-energy idealised yield rotation of every section's pushover skeleton up to
+        its peak rotation (rad, (N,)), on the product's definition
+        (:func:`~pier_monitor.core.model.springs.idealised_yield`: elastic branch through
+        first yield, at most ``M_p / k'_y``; ``θ'_y`` while the peak is below it), rad."""
+        peak = np.asarray(peak_rotation, dtype=float)
+        return np.array([idealised_yield(self.skeleton(i), float(peak[i]))
+                         for i in range(peak.size)])
 
 
 def _moment_curvature(ops, column: FiberColumn, n_bars: int, axial_n: float
@@ -383,20 +431,26 @@ def fiber_yield(column: FiberColumn, geometry: PierGeometry) -> FiberYield:
     th_fy = np.full(n, np.nan)
     k_sec = np.zeros(n)
     m_top = np.zeros(n)
-    for _ in range(5000):
+    curve_th, curve_m = [], []
+    nominal = False  # the base reached M_n: yield quantities fixed, only the curve goes on
+    for _ in range(20000):
         if ops.analyze(1) != 0:
             break
         th = b @ _levels_x(ops, n)
         mom, bar, conc = _section_state(ops, n, column)
-        for e in range(n):
-            if np.isnan(th_fy[e]) and abs(mom[e]) >= my[e]:
-                f = (my[e] - abs(prev_m[e])) / (abs(mom[e]) - abs(prev_m[e]))
-                th_fy[e] = abs(prev_th[e]) + f * (abs(th[e]) - abs(prev_th[e]))
-            if abs(mom[e]) > m_top[e] and abs(th[e]) > 0:
-                m_top[e] = abs(mom[e])
-                k_sec[e] = abs(mom[e]) / abs(th[e])
-        prev_th, prev_m = th, mom
-        if conc[0] >= 0.004 or bar[0] >= 0.015:
+        curve_th.append(th)
+        curve_m.append(mom)
+        if not nominal:
+            for e in range(n):
+                if np.isnan(th_fy[e]) and abs(mom[e]) >= my[e]:
+                    f = (my[e] - abs(prev_m[e])) / (abs(mom[e]) - abs(prev_m[e]))
+                    th_fy[e] = abs(prev_th[e]) + f * (abs(th[e]) - abs(prev_th[e]))
+                if abs(mom[e]) > m_top[e] and abs(th[e]) > 0:
+                    m_top[e] = abs(mom[e])
+                    k_sec[e] = abs(mom[e]) / abs(th[e])
+            prev_th, prev_m = th, mom
+            nominal = bool(conc[0] >= 0.004 or bar[0] >= 0.015)
+        if nominal and abs(th[0]) >= PUSHOVER_MAX_ROTATION:
             break
     ops.wipe()
     extrapolated = np.isnan(th_fy)
@@ -406,7 +460,9 @@ def fiber_yield(column: FiberColumn, geometry: PierGeometry) -> FiberYield:
     return FiberYield(first_yield_moment_Nm=my, nominal_moment_Nm=mn,
                       first_yield_rotation_rad=th_fy,
                       idealised_yield_rotation_rad=th_fy * mn / my,
-                      yield_extrapolated=extrapolated, axial_load_N=axial)
+                      yield_extrapolated=extrapolated, axial_load_N=axial,
+                      pushover_rotation_rad=np.array(curve_th).reshape(-1, n),
+                      pushover_moment_Nm=np.array(curve_m).reshape(-1, n))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -624,9 +680,13 @@ def fiber_truth(tr: FiberTransient, fy: FiberYield, column: FiberColumn,
                 shakings: Sequence[tuple[float, float]]) -> list[dict[str, Any]]:
     """Per shaking ``(t0, t1)`` (s from the start of the transient): per section the peak
     rotation (over that shaking, rad), the peak so far, the bar strain peak over the yield
-    strain, the idealised yield rotation, the DF (peak so far / idealised yield) and the
-    small-amplitude stiffness and first period at the probes just before and just after
-    (the nearest probes outside the shaking)."""
+    strain, the idealised yield rotation (RC_NOTES: ``θ'_y M_n / M'_y``), the DF (peak so far
+    / idealised yield), first yield ``θ'_y``; where the pushover curve was recorded the same
+    on the product's definition, ``equal_energy_yield_rotation_rad`` (the equal-energy
+    bilinearisation of the section's pushover skeleton up to the peak so far,
+    :meth:`FiberYield.equal_energy_yield_rotation`) and ``ductility_factor_equal_energy``;
+    and the small-amplitude stiffness and first period at the probes just before and just
+    after (the nearest probes outside the shaking)."""
     out = []
     so_far = np.zeros(tr.theta.shape[1])
     bar_so_far = np.zeros(tr.theta.shape[1])
@@ -645,9 +705,14 @@ def fiber_truth(tr: FiberTransient, fy: FiberYield, column: FiberColumn,
             "yielded": bar_so_far >= 1.0,
             "idealised_yield_rotation_rad": fy.idealised_yield_rotation_rad,
             "ductility_factor": so_far / fy.idealised_yield_rotation_rad,
+            "first_yield_rotation_rad": fy.first_yield_rotation_rad,
             "peak_moment_Nm": np.max(np.abs(tr.moment[sel]), axis=0),
             "peak_base_acceleration_mps2": float(np.max(np.abs(tr.ag[sel]))),
         }
+        if fy.pushover_rotation_rad is not None:
+            ee = fy.equal_energy_yield_rotation(so_far)
+            entry.update(equal_energy_yield_rotation_rad=ee,
+                         ductility_factor_equal_energy=so_far / ee)
         if before.size and after.size:
             kb, ka = tr.probe_k[before[-1]], tr.probe_k[after[0]]
             entry.update(k_small_before=kb, k_small_after=ka,
