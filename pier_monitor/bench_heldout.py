@@ -66,6 +66,10 @@ TUNING = {
                                "1.0 of the equation-error route: heldout suite, layout full, "
                                "both piers, tuning seeds 620-627 (coverage of the 90 % "
                                "intervals, time)"),
+    "takeda_yield_peak_fraction": ("0.8 (springs.TAKEDA_YIELD_PEAK_FRACTION): fiber suite's "
+                                   "column (its DF is no longer held out), checked on the "
+                                   "BWBN test-bed seeds 300-301 and the Takeda test-bed"),
+    "df_resolution": "DF_RESOLUTION 1.5 %: heldout suite, every layout, tuning seeds 620-627",
 }
 #: Log-normal spread (σ of the natural log) of the design values around the truth.
 DESIGN_LOG_SD = 0.25
