@@ -163,6 +163,8 @@ def bench_fiber(layouts: tuple[str, ...] = _LAYOUTS, seed: int = FIBER_SEED,
                 out.append(_score_event(layout, k, outcome.result, truth, wall, record_s))
     summary = {
         "case": "fiber_summary", "seed": seed, "pga_mps2": list(pga_mps2),
+        "tuned_on_this_column": ["springs.TAKEDA_YIELD_PEAK_FRACTION (the Takeda family's DF: "
+                                 "its DF here is not a held-out figure)"],
         "pga_trials": FIBER_PGA_TRIALS, "column": dataclasses.asdict(column),
         "yield": yield_.as_dict(), "yield_analysis_s": round(yield_s, 2),
         "design": {"k1_Nm_per_rad": _f(design.k1), "k2_Nm_per_rad": _f(design.k2),
