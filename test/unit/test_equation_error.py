@@ -114,3 +114,37 @@ def test_the_ensemble_of_perturbed_windows_holds_the_truth_and_each_member_decid
     assert result.sections[1].uncertainty.p_yielded == 1.0
     assert 0.0 < result.sections[2].uncertainty.p_yielded < 1.0
     assert result.sections[2].yield_status == "may have yielded"
+
+
+def test_the_global_search_minimises_the_hysteresis_cost_over_fy_exactly():
+    """The profile's cost at each ratio, from one sort per ratio, is the summed squared
+    residuals of one residual pass at its share, and no share of a fine grid does better;
+    the search starts from local minima of distinct cost, the lowest first."""
+    from pier_monitor.core.identify import equation_error as ee
+
+    window, truth, resp = paper_case_window(moments_measured=True, seed=2)
+    theta, f = resp.theta[:, 0], window.moments[:, 0]
+    k1, fmax = float(truth.k1[0]), float(np.max(np.abs(f)))
+    cost, share = ee._profile(f, theta, k1, fmax)
+    assert cost.shape == share.shape == ee.GRID_RATIOS.shape
+    assert np.all((share >= ee.SHARE_RANGE[0]) & (share <= ee.SHARE_RANGE[1]))
+
+    def direct(r, s):
+        return np.sum(ee._hyst_residual(f, theta, k1, k1 * r, fmax * s) ** 2)
+
+    # cumulative sums: rounding of the order of the largest cost times the machine epsilon
+    tol = 1e-12 * cost.max()
+    np.testing.assert_allclose(cost, [direct(r, s) for r, s in zip(ee.GRID_RATIOS, share)],
+                               rtol=1e-9, atol=tol)
+    fine = np.linspace(*ee.SHARE_RANGE, 2001)
+    for i in range(0, ee.GRID_RATIOS.size, 8):
+        assert cost[i] <= min(direct(ee.GRID_RATIOS[i], s) for s in fine) + tol
+    starts = ee._grid_starts(f, theta, k1, fmax)
+    assert 1 <= len(starts) <= ee.GRID_POLISHED
+    index = [int(np.argmin(np.abs(ee.GRID_RATIOS - x[0]))) for x in starts]
+    at = [cost[i] for i in index]
+    assert at == sorted(at) and len(set(at)) == len(at)
+    assert at[0] == cost.min()  # the profile's lowest point is a local minimum
+    # spring 1 yields at k2/k1 = truth, fy/fmax = truth: the best start is near them
+    assert abs(starts[0][0] - truth.k2[0] / truth.k1[0]) < 0.05
+    assert abs(starts[0][1] - truth.fy[0] / fmax) < 0.02
