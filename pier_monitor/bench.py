@@ -19,7 +19,8 @@ import numpy as np
 
 from pier_monitor.bags import read_bag
 from pier_monitor.bench_greybox import greybox_suite
-from pier_monitor.bench_heldout import heldout_suite, identify_default, true_ductility
+from pier_monitor.bench_heldout import (heldout_pinn_suite, heldout_suite, identify_default,
+                                        identify_rc_case)
 from pier_monitor.bench_live import bench_latency
 from pier_monitor.bench_fiber import bench_fiber
 from pier_monitor.store import ResultsStore
@@ -699,12 +700,8 @@ def bench_rc(seeds: tuple[int, ...] = RC_HELD_OUT_SEEDS,
 
 def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str,
             seed: int) -> dict[str, Any]:
-    name = f"{pier}/{layout}/{shaking}/{seed}/{hyst}"
-    syn = field_case_recording(pier, layout, False, shaking, seed, hysteresis=hyst)
-    window, truth, _ = _field_window(syn, name)
-    window = dataclasses.replace(window, event_id=f"rc_{hyst}_{pier}_{layout}_{shaking}_{seed}")
-    true_df, yielded = true_ductility(syn.truth.runs[0])
-    outcome, wall = identify_default(window, store, seed)
+    window, true_df, yielded, outcome, wall = identify_rc_case(
+        store, _field_window, "rc", hyst, pier, layout, shaking, seed)
     result = outcome.result
     states = [s.state for s in result.sections]
     df = np.array([s.ductility_factor for s in result.sections])
@@ -855,6 +852,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "rc_sequence": lambda: bench_rc_sequence(),
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
+    "heldout_pinn": lambda: heldout_pinn_suite(),
     "fiber": lambda: bench_fiber(),
     "greybox": lambda: greybox_suite(_field_window),
 }

@@ -23,7 +23,6 @@ runs under the same self-check), and the raw states are scored beside.
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import json
 import tempfile
@@ -34,12 +33,11 @@ from typing import Any
 
 import numpy as np
 
-from pier_monitor.bench_heldout import identify_default, true_ductility
+from pier_monitor.bench_heldout import identify_rc_case
 from pier_monitor.core.errors import SolverError
 from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
 from pier_monitor.core.identify.families import fit_families, moment_noise_variance
 from pier_monitor.core.model.link_model import angle_matrix
-from pier_monitor.core.synthetic.field import field_case_recording
 from pier_monitor.store import ResultsStore
 
 __all__ = ["GREYBOX_SEEDS", "GREYBOX_COMBOS", "greybox_run", "bench_greybox",
@@ -77,16 +75,13 @@ def greybox_run(store: ResultsStore, hyst: str, pier: str, shaking: str, seed: i
     fit_greybox = importlib.import_module(GREYBOX_MODULE).fit_greybox
     layout = "full"
     try:
-        syn = field_case_recording(pier, layout, False, shaking, seed, hysteresis=hyst)
+        window, true_df, yielded, outcome, ref_wall = identify_rc_case(
+            store, make_window, "gb", hyst, pier, layout, shaking, seed)
     except SolverError as exc:  # the test-bed's own simulation, not the identifier
         return {"case": f"greybox_{hyst}_{pier}_{layout}_{shaking}", "seed": seed,
                 "split": "held_out", "hysteresis": hyst, "pier": pier, "layout": layout,
                 "shaking": shaking, "skipped": f"test-bed simulation failed: {exc}",
                 "device": "cpu"}
-    window, _, _ = make_window(syn, f"{pier}/{layout}/{shaking}/{seed}/{hyst}")
-    window = dataclasses.replace(window, event_id=f"gb_{hyst}_{pier}_{layout}_{shaking}_{seed}")
-    true_df, yielded = true_ductility(syn.truth.runs[0])
-    outcome, ref_wall = identify_default(window, store, seed)
     result = outcome.result
     ref_states = [s.state for s in result.sections]
     ref_df = np.array([s.ductility_factor for s in result.sections])

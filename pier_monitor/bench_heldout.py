@@ -40,12 +40,12 @@ from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.ingest import ingest_recording
 from pier_monitor.core.model.config import SpringParameters, load_config
 from pier_monitor.core.resources import find_config_file
-from pier_monitor.core.synthetic.field import field_pier, field_recording
+from pier_monitor.core.synthetic.field import field_case_recording, field_pier, field_recording
 from pier_monitor.core.synthetic.shaking_table import Scenario
 from pier_monitor.events import identify_window
 from pier_monitor.store import ResultsStore
 
-__all__ = ["true_ductility", "identify_default", "HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
+__all__ = ["true_ductility", "identify_default", "identify_rc_case", "heldout_pinn_suite", "HELDOUT_SEEDS", "TUNING", "DESIGN_LOG_SD", "heldout_case", "bench_heldout",
            "summarize_heldout"]
 
 #: Seeds of the suite; nothing in the product was chosen on them.
@@ -85,13 +85,30 @@ def true_ductility(run_truth) -> tuple[np.ndarray, np.ndarray]:
     return true_df, true_df > 1.0
 
 
-def identify_default(window, store: ResultsStore, seed: int):
+def identify_default(window, store: ResultsStore, seed: int, method: str = "auto"):
     """``window`` identified as the product does (:func:`~pier_monitor.events.identify_window`,
-    default settings of ``seed``, no figures) into ``store``: ``(outcome, wall_s)``, the
-    wall time of the identification and its self-check, s."""
+    default settings of ``seed`` and ``method``, no figures) into ``store``:
+    ``(outcome, wall_s)``, the wall time of the identification and its self-check, s."""
     started = time.perf_counter()
-    outcome = identify_window(window, IdentifySettings(seed=seed), store, figures=False)
+    settings = IdentifySettings(seed=seed, method=method)
+    outcome = identify_window(window, settings, store, figures=False)
     return outcome, time.perf_counter() - started
+
+
+def identify_rc_case(store: ResultsStore, make_window, prefix: str, hyst: str, pier: str,
+                     layout: str, shaking: str, seed: int):
+    """One test-bed case (:func:`~pier_monitor.core.synthetic.field.field_case_recording`,
+    springs ``hyst``) windowed by ``make_window(syn, name)`` and identified by
+    :func:`identify_default` into ``store``, its event named ``{prefix}_{hyst}_{pier}_{layout}_
+    {shaking}_{seed}``: ``(window, true_df, yielded, outcome, wall_s)``.  The test-bed's own
+    simulation may raise :class:`~pier_monitor.core.errors.SolverError`."""
+    syn = field_case_recording(pier, layout, False, shaking, seed, hysteresis=hyst)
+    window, _, _ = make_window(syn, f"{pier}/{layout}/{shaking}/{seed}/{hyst}")
+    window = dataclasses.replace(
+        window, event_id=f"{prefix}_{hyst}_{pier}_{layout}_{shaking}_{seed}")
+    true_df, yielded = true_ductility(syn.truth.runs[0])
+    outcome, wall = identify_default(window, store, seed)
+    return window, true_df, yielded, outcome, wall
 
 
 def heldout_case(pier: str, layout: str, seed: int, hysteresis: str = "bilinear"):
@@ -170,9 +187,9 @@ def _score_section(sec, i: int, truth: SpringParameters, true_df: float, yielded
 
 
 def _heldout_run(store: ResultsStore, pier: str, layout: str, seed: int,
-                 hysteresis: str) -> dict[str, Any]:
+                 hysteresis: str, method: str = "auto") -> dict[str, Any]:
     window, truth, true_df, yielded, info = heldout_case(pier, layout, seed, hysteresis)
-    outcome, wall = identify_default(window, store, seed)
+    outcome, wall = identify_default(window, store, seed, method)
     result = outcome.result
     unreliable = result.overall_state == "unreliable"
     sections = [_score_section(sec, i, truth, true_df[i], yielded[i], hysteresis == "bilinear")
@@ -184,20 +201,22 @@ def _heldout_run(store: ResultsStore, pier: str, layout: str, seed: int,
         s["over_call"] = bool(not unreliable and s["state"] == "damaged" and s["true_df"] < 1.2)
     misfit = result.model_misfit or {}
     return {"case": f"heldout_{hysteresis}_{pier}_{layout}", "split": "held_out", "seed": seed,
-            "pier": pier, "layout": layout, "hysteresis": hysteresis, **info,
+            "pier": pier, "layout": layout, "hysteresis": hysteresis, "method": method, **info,
             "members": result.members, "family": (result.family or {}).get("family"),
             "unreliable": unreliable, "misfit_kind": misfit.get("kind"),
             "overall_state": result.overall_state, "sections": sections,
-            "wall_s": round(wall, 2), "device": "cpu"}
+            "wall_s": round(wall, 2), "device": result.device or "cpu"}
 
 
 def bench_heldout(seeds: tuple[int, ...] = HELDOUT_SEEDS,
                   rc_seeds: tuple[int, ...] = HELDOUT_RC_SEEDS,
                   piers: tuple[str, ...] = ("edefense", "table1"),
-                  layouts: tuple[str, ...] = ("full", "accel", "sparse")) -> list[dict[str, Any]]:
+                  layouts: tuple[str, ...] = ("full", "accel", "sparse"),
+                  method: str = "auto") -> list[dict[str, Any]]:
     """Every pier and layout on drawn cases (bilinear springs, ``seeds``) and on the RC
-    test-bed (modified Takeda, ``rc_seeds``), identified as the product does.  Each case
-    is a pier of its own, in a store of its own: no case is another's baseline."""
+    test-bed (modified Takeda, ``rc_seeds``), identified as the product does with
+    ``method`` (``auto``: the default route).  Each case is a pier of its own, in a store of
+    its own: no case is another's baseline."""
     out = []
     with tempfile.TemporaryDirectory(prefix="pier_monitor_heldout_") as tmp:
         for hyst, hyst_seeds in (("bilinear", seeds), ("takeda", rc_seeds)):
@@ -206,7 +225,7 @@ def bench_heldout(seeds: tuple[int, ...] = HELDOUT_SEEDS,
                     for seed in hyst_seeds:
                         store = ResultsStore(Path(tmp) / f"{hyst}_{pier}_{layout}_{seed}")
                         try:
-                            out.append(_heldout_run(store, pier, layout, seed, hyst))
+                            out.append(_heldout_run(store, pier, layout, seed, hyst, method))
                         except InputDataError as exc:  # a drawn case the generator cannot make
                             out.append({"case": f"heldout_{hyst}_{pier}_{layout}", "seed": seed,
                                         "pier": pier, "layout": layout, "hysteresis": hyst,
@@ -275,4 +294,13 @@ def summarize_heldout(runs: list[dict[str, Any]]) -> dict[str, Any]:
 def heldout_suite() -> list[dict[str, Any]]:
     """The ``heldout`` suite: :func:`bench_heldout` and its summary (last entry)."""
     runs = bench_heldout()
+    return [*runs, summarize_heldout(runs)]
+
+
+def heldout_pinn_suite() -> list[dict[str, Any]]:
+    """The ``heldout_pinn`` suite: the PINN route (``--method pinn``, its default members and
+    epochs, on the CPU) on the held-out drawn cases of the full layout, both piers (bilinear
+    springs: the PINN's own model; on the GPU where there is one), and its summary (last entry): the coverage of its
+    intervals beside the default route's in the ``heldout`` suite."""
+    runs = bench_heldout(rc_seeds=(), layouts=("full",), method="pinn")
     return [*runs, summarize_heldout(runs)]

@@ -70,3 +70,26 @@ def test_a_takeda_choice_shows_no_bilinear_interval_and_says_why():
     assert result.intervals == NO_INTERVAL_FAMILY
     assert uncertainty_table(result) == f"intervals: {NO_INTERVAL_FAMILY}"
     assert result.to_dict()["intervals"] == NO_INTERVAL_FAMILY
+
+
+def test_a_diverged_point_gets_a_residual_of_the_fit_s_own_length():
+    """A trial point whose Takeda integration diverges is answered with a residual vector of
+    the length least squares was given (data, the springs' priors, the gains), all 1e6."""
+    from pier_monitor.core.identify.field import FieldSettings, _FieldProblem
+    from pier_monitor.core.identify.field_families import _NT, _TakedaField
+
+    syn = field_case_recording("edefense", "accel", False, "strong", 0, hysteresis="takeda")
+    window, _, _ = _field_window(syn, "takeda accel")
+    pb = _FieldProblem(window, FieldSettings())
+    design = window.design
+    n = pb.n
+    pb.set_prior(np.column_stack([np.log(design.k1), np.full(n, np.log(0.1)), np.zeros(n),
+                                  np.log(design.c), np.zeros(n)]))
+    tf = _TakedaField(pb, window)
+    eps = np.zeros(pb.acc.size)
+    q = np.zeros((n, _NT))
+    theta = np.zeros((pb.t_len, n))
+    r = tf.residual(q, eps, theta)
+    bad = tf.failed(eps.size)
+    assert bad.shape == r.shape
+    assert np.all(bad == 1e6)

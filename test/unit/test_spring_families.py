@@ -86,6 +86,25 @@ def test_bilinear_moment_is_the_spec_step_iterated():
     np.testing.assert_allclose(bilinear_moment(th, 1e9, 1e8, 5e6), want, rtol=1e-12)
 
 
+
+def test_bilinear_moment_from_a_yielded_start_continues_the_history():
+    # a window cut from a longer record: started from the moment of its first sample, the
+    # spring carries on exactly as the whole history; from rest it keeps a plastic offset
+    rng = np.random.default_rng(4)
+    th = np.cumsum(rng.standard_normal(800)) * 2e-3
+    whole = bilinear_moment(th, 1e9, 1e8, 5e6)
+    cut = 400
+    np.testing.assert_allclose(
+        bilinear_moment(th[cut:], 1e9, 1e8, 5e6, start_moment=whole[cut]), whole[cut:],
+        rtol=1e-12, atol=1e-6)
+    assert np.max(np.abs(bilinear_moment(th[cut:], 1e9, 1e8, 5e6) - whole[cut:])) > 1e5
+    # a start beyond the yield surface is held on it
+    s = 5e6 * (1 - 0.1)
+    assert bilinear_moment(th[cut:], 1e9, 1e8, 5e6, start_moment=1e12)[0] == pytest.approx(
+        1e8 * th[cut] + s, rel=1e-12)
+    with pytest.raises(InputDataError, match="start_moment"):
+        bilinear_moment(th, 1e9, 1e8, 5e6, start_moment=float("nan"))
+
 def test_idealised_yield_is_fy_over_k1_for_the_bilinear():
     sk = bilinear_skeleton(1e9, 1e8, 5e6)
     for peak in (5.5e-3, 1e-2, 3e-2):

@@ -381,7 +381,7 @@ class _Problem:
 
     def bil_moment(self, x: np.ndarray) -> np.ndarray:
         k1, k2, fy = self.bil_params(x)
-        _bilinear_kernel(k1, k2, fy, self.theta, self.buf)
+        _bilinear_kernel(k1, k2, fy, self.theta, self.buf, 0.0, 0.0)
         return self.buf
 
     # takeda: x = [log(k_y/k_ref), log(k0/k_y − 1), log(my/f_ref), mc/my, kp/k0, px, py]

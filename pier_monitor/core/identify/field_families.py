@@ -226,6 +226,13 @@ class _TakedaField:
     def chi2(self, r: np.ndarray) -> float:
         return float(np.sum(r[:self.n_data] ** 2))
 
+    def failed(self, n_eps: int) -> np.ndarray:
+        """The residual of a point whose integration diverged: the length of
+        :meth:`residual`'s (data, priors of the ``n`` springs, ``n_eps`` gains), every entry
+        1e6."""
+        n_prior = self.pb.n * int(np.count_nonzero(np.isfinite(self.prior_sd)))
+        return np.full(self.n_data + n_prior + n_eps, 1e6)
+
 
 class _HeldResiduals:
     """Residuals of the yield test: spring ``i`` held below yield (its ``θy`` at ``theta_p``)
@@ -253,7 +260,7 @@ class _HeldResiduals:
 
     def _residual(self, qq: np.ndarray, th: np.ndarray) -> np.ndarray:
         if not np.all(np.isfinite(th)):
-            return np.full(self.tf.n_data + self.tf.pb.n + self.eps.size, 1e6)
+            return self.tf.failed(self.eps.size)
         return self.tf.residual(qq, self.eps, th)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
@@ -386,7 +393,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         th, mo = tf.angles(q, g)
         last[:] = [np.array(z, dtype=float), g, th, mo]
         if not np.all(np.isfinite(th)):
-            return np.full(tf.n_data + n + n_eps, 1e6)
+            return tf.failed(n_eps)
         return tf.residual(q, eps, th)
 
     # the field fit's k1 (elastic, a secant) scales the Takeda's cracked stiffness
@@ -426,7 +433,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                 moved = np.flatnonzero(~np.all(g == g0, axis=0))
                 th = tf.angles(qq, g, springs=moved, theta=th0, moment=mo0)[0]
                 r = (tf.residual(qq, eps_c, th) if np.all(np.isfinite(th))
-                     else np.full(tf.n_data + n + n_eps, 1e6))
+                     else tf.failed(n_eps))
             jac[:, col] = (r - r0) / h
         return jac
 

@@ -633,8 +633,11 @@ def moment_residuals(theta: np.ndarray, moment: np.ndarray, params: SpringParame
     measurements give (``g − c θ̇``, or the measured moments) less those of the fitted
     springs along the measured angles ``theta`` (T, N).
 
-    A spring that yielded is the bilinear spring at rest at ``θ = 0``
-    (:func:`~pier_monitor.core.model.springs.bilinear_moment`); one that did not is one
+    A spring that yielded is the bilinear spring in the state the window starts in: the
+    moment of its first sample at its first angle
+    (:func:`~pier_monitor.core.model.springs.bilinear_moment`; from rest at ``θ = 0`` a
+    window cut from a longer record, whose springs yielded before it, would leave its
+    earlier plastic offset in the residuals, many times the noise); one that did not is one
     elastic line, ``k1 θ`` plus the window's mean offset.  What the springs do not explain
     (the sensors' gain and alignment errors seen through ``θ = B x``, the model's own
     error) is in them, where the noise model sees only the noise."""
@@ -642,7 +645,8 @@ def moment_residuals(theta: np.ndarray, moment: np.ndarray, params: SpringParame
     for i in range(out.shape[1]):
         th, f = theta[:, i], moment[:, i]
         if yielded[i] and 0 <= params.k2[i] < params.k1[i] and params.fy[i] > 0:
-            model = bilinear_moment(th, params.k1[i], params.k2[i], params.fy[i])
+            model = bilinear_moment(th, params.k1[i], params.k2[i], params.fy[i],
+                                    start_moment=float(f[0]))
         else:
             model = params.k1[i] * th
             model = model + float(np.mean(f - model))

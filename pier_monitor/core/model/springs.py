@@ -245,9 +245,9 @@ def _takeda_kernel(p, theta, out):  # pragma: no cover - compiled
 
 
 @jit
-def _bilinear_kernel(k1, k2, fy, theta, out):  # pragma: no cover - compiled
+def _bilinear_kernel(k1, k2, fy, theta, out, th_prev, f):  # pragma: no cover - compiled
+    # (th_prev, f): the spring's angle and moment before sample 0 (at rest: 0, 0)
     s = fy * (1.0 - k2 / k1)
-    th_prev, f = 0.0, 0.0
     for i in range(theta.shape[0]):
         th = theta[i]
         f = min(max(f + k1 * (th - th_prev), k2 * th - s), k2 * th + s)
@@ -271,11 +271,15 @@ def takeda_moment(theta: np.ndarray, params: TakedaParameters) -> np.ndarray:
     return out
 
 
-def bilinear_moment(theta: np.ndarray, k1: float, k2: float, fy: float) -> np.ndarray:
+def bilinear_moment(theta: np.ndarray, k1: float, k2: float, fy: float,
+                    start_moment: float | None = None) -> np.ndarray:
     """Moment history of the bilinear kinematic-hardening spring (SPEC §3), N·m, shape (T,).
 
-    ``theta`` (rad, shape (T,)) starts from a spring at rest at ``θ = 0``; ``k1 > 0``,
-    ``0 <= k2 < k1`` (N·m/rad), ``fy > 0`` (N·m).
+    ``theta`` (rad, shape (T,)) starts from a spring at rest at ``θ = 0``, or with
+    ``start_moment`` (N·m) from the spring carrying that moment at ``theta[0]`` (held within
+    its yield surface there: the state of a spring that yielded before the history starts,
+    e.g. a window cut from a longer record); ``k1 > 0``, ``0 <= k2 < k1`` (N·m/rad),
+    ``fy > 0`` (N·m).
     """
     th = _check_theta(theta)
     if not (np.isfinite(k1) and np.isfinite(k2) and np.isfinite(fy) and k1 > 0
@@ -283,7 +287,15 @@ def bilinear_moment(theta: np.ndarray, k1: float, k2: float, fy: float) -> np.nd
         raise InputDataError(f"bilinear spring: expected k1 > 0, 0 <= k2 < k1, fy > 0, got "
                              f"k1={k1}, k2={k2}, fy={fy}")
     out = np.empty_like(th)
-    _bilinear_kernel(float(k1), float(k2), float(fy), th, out)
+    th0 = f0 = 0.0
+    if start_moment is not None and th.size:
+        if not np.isfinite(start_moment):
+            raise InputDataError(f"bilinear spring: start_moment: expected a finite moment, "
+                                 f"got {start_moment}")
+        th0 = float(th[0])
+        s = fy * (1.0 - k2 / k1)
+        f0 = float(np.clip(start_moment, k2 * th0 - s, k2 * th0 + s))
+    _bilinear_kernel(float(k1), float(k2), float(fy), th, out, th0, f0)
     return out
 
 
