@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -219,6 +220,37 @@ def test_a_k1_difference_from_design_values_is_no_evidence_of_cracking() -> None
 def test_a_k1_gain_beyond_the_scatter_is_not_damage() -> None:
     before, after = _k1_events(-0.13, 0.01)
     assert after.with_baseline(before).sections[0].state == "intact"
+
+
+def _takeda(result: IdentificationResult, bilinear_k1: float) -> IdentificationResult:
+    """``result`` as a Takeda event: its members' ``k1`` are the draws of the stiffness
+    after the event (``k_small_after``, their mean), its ``k1`` the bilinear fit's."""
+    sections = tuple(replace(s, family="takeda", k_small_after=s.k1, k1=bilinear_k1)
+                     for s in result.sections)
+    return replace(result, sections=sections, family={"family": "takeda"})
+
+
+def test_a_takeda_sections_interval_is_that_of_its_stiffness_after_the_event() -> None:
+    """A Takeda section's uncertainty ``k1`` is the spread of ``k_small_after``, the
+    stiffness a change against an earlier event compares: that change gets its interval
+    and the cracking rule; a change of the bilinear ``k1`` against design values gets none
+    (no interval of it was drawn)."""
+    before, after = _k1_events(0.13, 0.01)
+    before, after = _takeda(before, 0.6 * K1), _takeda(after, 0.5 * K1)
+    s = after.with_baseline(before).sections[0]
+    ks_before, ks_after = before.sections[0].k_small_after, after.sections[0].k_small_after
+    assert s.k1_change_pct == pytest.approx(100 * (ks_after / ks_before - 1), abs=1e-9)
+    want = k1_change_interval(ks_after, after.sections[0].uncertainty.k1, ks_before,
+                              before.sections[0].uncertainty.k1)
+    assert (s.k1_change_lo_pct, s.k1_change_hi_pct, s.k1_change_scatter_pct) == \
+        pytest.approx((want.lo_pct, want.hi_pct, want.scatter_pct), rel=1e-12)
+    assert -15.5 < s.k1_change_lo_pct < s.k1_change_hi_pct < -s.k1_change_scatter_pct < 0
+    assert s.state == "suspicious" and s.reasons[0].endswith("%): cracking")
+    d = after.with_k1_baseline(np.array([K1]), "design values").sections[0]
+    assert d.k1_change_pct == pytest.approx(-50.0)
+    assert (d.k1_change_lo_pct, d.k1_change_hi_pct, d.k1_change_scatter_pct) == (None,) * 3
+    assert after.intervals == f"90 % interval over {MEMBERS} draws of the modified-Takeda " \
+        "fit's posterior"
 
 
 def test_k1_change_interval_is_the_members_interval_against_a_baseline_without_spread() -> None:

@@ -112,8 +112,9 @@ IDENTIFIABILITY_LIMITS = {"k1": 0.10, "k2": 0.30, "fy": 0.30, "c": 0.30, "DF": 0
 
 #: What the outputs say where there is no interval: a single identification.
 NO_INTERVAL = "no interval (1 member)"
-#: ... and where the spring family chosen is not the bilinear: the ensemble's members refit
-#: bilinear springs, so their spread is not the chosen family's and is not shown.
+#: ... and where the spring family chosen is not the bilinear and its own posterior was not
+#: drawn (the field route): the ensemble's members refit bilinear springs, so their spread is
+#: not the chosen family's and is not shown.
 NO_INTERVAL_FAMILY = ("no interval (modified-Takeda springs chosen; the ensemble refits "
                       "bilinear springs)")
 
@@ -378,9 +379,21 @@ class SectionResult:
             return "yielded"
         return "may have yielded" if _may_have_yielded(False, self.uncertainty) else "not yielded"
 
+    def k1_spread_of(self, stiffness: float) -> Spread | None:
+        """The 90 % spread of ``stiffness`` (N·m/rad) where this section's uncertainty is
+        of it, else None.  ``uncertainty.k1`` is the spread of ``k1`` for bilinear springs
+        and of ``k_small_after`` for another family (the stiffness a change against an
+        earlier event compares, :meth:`IdentificationResult.small_amplitude_stiffness`;
+        :func:`~pier_monitor.core.identify.families.takeda_draws`)."""
+        u = self.uncertainty
+        own = self.k1 if self.family == "bilinear" else self.k_small_after
+        if u is None or own is None or not math.isfinite(own) or stiffness != own:
+            return None
+        return u.k1
+
     def rebased(self, baseline_k1: float, change_pct: float, baseline_label: str,
-                baseline_spread: Spread | None = None, *, event: bool = False
-                ) -> SectionResult:
+                baseline_spread: Spread | None = None, *, event: bool = False,
+                stiffness: float | None = None) -> SectionResult:
         """A copy with its ``k1`` change against a new baseline, and its state decided again.
 
         Parameters
@@ -395,12 +408,17 @@ class SectionResult:
             The baseline identification's ``k1`` spread.
         event : bool
             The baseline is an earlier event: a ``k1`` loss beyond the scatter is cracking.
+        stiffness : float, optional
+            The stiffness compared with the baseline, N·m/rad (default ``k1``); the change
+            has an interval only where the uncertainty is of it (:meth:`k1_spread_of`).
         """
         lo = hi = scatter = None
         loss = None
         u = self.uncertainty
-        if u is not None and u.members >= 2 and math.isfinite(self.k1) and u.k1.defined:
-            interval = k1_change_interval(self.k1, u.k1, baseline_k1, baseline_spread)
+        own = self.k1 if stiffness is None else float(stiffness)
+        spread = self.k1_spread_of(own)
+        if u is not None and u.members >= 2 and spread is not None and spread.defined:
+            interval = k1_change_interval(own, spread, baseline_k1, baseline_spread)
             lo, hi, scatter = interval.lo_pct, interval.hi_pct, interval.scatter_pct
             if event and k1_loss_beyond_scatter(change_pct, interval):
                 loss = k1_loss_reason(change_pct, interval, baseline_label)
@@ -566,11 +584,16 @@ class IdentificationResult:
     def intervals(self) -> str:
         """What the sections' intervals are, as result.json says it: ``90 % interval over M
         members`` for an ensemble, :data:`NO_INTERVAL` for a single identification,
-        :data:`NO_INTERVAL_FAMILY` where a non-bilinear family was chosen."""
+        :data:`NO_INTERVAL_FAMILY` where a non-bilinear family was chosen and its own
+        posterior not drawn (the field route); ``90 % interval over M draws of the
+        modified-Takeda fit's posterior`` where it was
+        (:func:`~pier_monitor.core.identify.families.takeda_draws`)."""
         m = self.members
+        bilinear = (self.family or {}).get("family") in (None, "bilinear")
         if m >= 2:
-            return f"90 % interval over {m} members"
-        return NO_INTERVAL if (self.family or {}).get("family") in (None, "bilinear") \
+            return (f"90 % interval over {m} members" if bilinear
+                    else f"90 % interval over {m} draws of the modified-Takeda fit's posterior")
+        return NO_INTERVAL if bilinear or (self.settings or {}).get("members") == 1 \
             else NO_INTERVAL_FAMILY
 
     @property
@@ -596,14 +619,16 @@ class IdentificationResult:
         ``event`` says that the baseline is an earlier event (:meth:`with_baseline`).
         ``own_k1`` (N,) is the stiffness compared with it (default the sections' ``k1``).
         """
-        change = k1_change_pct(self.params.k1 if own_k1 is None else own_k1, baseline_k1)
+        own = self.params.k1 if own_k1 is None else np.asarray(own_k1, dtype=float)
+        change = k1_change_pct(own, baseline_k1)
         base = np.asarray(baseline_k1, dtype=float)
         spreads = [None] * len(self.sections) if spreads is None else list(spreads)
         if len(spreads) != len(self.sections):
             raise InputDataError(f"baseline k1 spreads: expected {len(self.sections)}, got "
                                  f"{len(spreads)}")
-        sections = tuple(s.rebased(float(b), float(d), label, sp, event=event)
-                         for s, b, d, sp in zip(self.sections, base, change, spreads))
+        sections = tuple(s.rebased(float(b), float(d), label, sp, event=event,
+                                   stiffness=float(k))
+                         for s, b, d, sp, k in zip(self.sections, base, change, spreads, own))
         if self.unreliable_reasons:  # a new baseline never makes an unreliable result a diagnosis
             sections = _unreliable_sections(sections, self.unreliable_reasons)
         overall = overall_state(sections) if self.success else self.overall_state
@@ -707,10 +732,10 @@ class IdentificationResult:
         The baseline's ``k1`` spreads widen the change intervals, and a loss beyond the two
         identifications' scatter makes a section at least suspicious (cracking).
         """
+        base = baseline.small_amplitude_stiffness
         return self.with_k1_baseline(
-            baseline.small_amplitude_stiffness, f"event {baseline.event_id}", event=True,
-            spreads=[None if s.uncertainty is None else s.uncertainty.k1
-                     for s in baseline.sections],
+            base, f"event {baseline.event_id}", event=True,
+            spreads=[s.k1_spread_of(float(k)) for s, k in zip(baseline.sections, base)],
             own_k1=self.small_amplitude_stiffness)
 
     @property

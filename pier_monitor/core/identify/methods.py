@@ -39,15 +39,18 @@ import numpy as np
 from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
-                                               member_ductility, overall_state, with_family,
-                                               with_identifiability)
+                                               k1_change_pct, member_ductility, overall_state,
+                                               with_family, with_identifiability)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
-from pier_monitor.core.identify.families import FamilyChoice, fit_families, moment_noise_variance
+from pier_monitor.core.identify.families import (TAKEDA_DF_RESOLUTION, FamilyChoice,
+                                                 fit_families, moment_noise_variance,
+                                                 takeda_draws)
 from pier_monitor.core.identify.field import FieldFit, FieldSettings, fit_field
 from pier_monitor.core.identify.field_families import fit_field_families
 from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
-from pier_monitor.core.identify.uncertainty import (MemberResponses, overall_state_probabilities,
+from pier_monitor.core.identify.uncertainty import (DF_RESOLUTION, MemberResponses,
+                                                    overall_state_probabilities,
                                                     summarize_members, with_df_resolution)
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
@@ -679,16 +682,43 @@ def with_moment_perturbation(window: MeasuredWindow, moment: np.ndarray) -> Meas
     return replace(window, a=window.a - (moment @ b) / window.geometry.masses_kg)
 
 
+def _family_arrays(window: MeasuredWindow) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The measured spring angles, their rates and the moments the springs and dampers
+    carry, (T, N) each (rad, rad/s, N·m): the measured moments where there are any, else
+    the inertia moments."""
+    b = angle_matrix(window.geometry.section_heights_m)
+    g = (window.moments if window.moments is not None
+         else inertia_moments(window.geometry, window.a, window.ag))
+    return window.x @ b.T, window.v @ b.T, g
+
+
 def _choose_family(window: MeasuredWindow, fit: Any, theta: np.ndarray) -> FamilyChoice:
     """The spring family of the event by evidence
     (:func:`~pier_monitor.core.identify.families.fit_families`: the bilinear or the
     modified Takeda, BIC against the noise model), fitted to the measured window."""
-    b = angle_matrix(window.geometry.section_heights_m)
-    g = (window.moments if window.moments is not None
-         else inertia_moments(window.geometry, window.a, window.ag))
+    _, theta_dot, g = _family_arrays(window)
     noise_var = moment_noise_variance(window.geometry, window.noise, fit.params.k1,
                                       fit.params.c)
-    return fit_families(theta, window.v @ b.T, g, noise_var, fit.springs)
+    return fit_families(theta, theta_dot, g, noise_var, fit.springs)
+
+
+def _takeda_draws(window: MeasuredWindow, family: FamilyChoice,
+                  settings: IdentifySettings) -> EnsembleDraws:
+    """The uncertainty of a Takeda event of a fully measured window
+    (:func:`~pier_monitor.core.identify.families.takeda_draws`): its posterior about the
+    fits, each draw shifted as the fits move on one of the perturbed windows of the
+    equation-error ensemble (:func:`~pier_monitor.core.identify.ensemble.member_windows`,
+    the same seed and gains; :data:`DEFAULT_MEMBERS` of the route less the measured one).
+
+    Measured on the RC test-bed (tuning seeds 300-301, both piers, both shakings, full
+    layout; a few tenths of a CPU second per event): see
+    :func:`~pier_monitor.core.identify.families.takeda_draws`."""
+    own = settings.equation_error_settings
+    windows = member_windows(window, DEFAULT_MEMBERS["equation_error"], seed=settings.seed,
+                             gain_scale=own.member_gain_scale, velocity_from_acceleration=True)
+    theta, theta_dot, g = _family_arrays(window)
+    return takeda_draws(theta, theta_dot, g, family, seed=settings.seed,
+                        perturbed=tuple(_family_arrays(w) for w in windows[1:]))
 
 
 def _require_full(window: MeasuredWindow, method: str) -> None:
@@ -776,28 +806,31 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
             out = method.run(window, settings, callback, first=first)
     else:
         out = method.run(window, settings, callback)
-    uncertainty = p_overall = None
-    if out.draws is not None:
-        d = out.draws
-        kept = _converged_members(d.params, d.ductility)
-        masked = d.params.copy()
-        masked[..., 1:3] = np.where(d.yielded[..., None], masked[..., 1:3], np.nan)
-        uncertainty = summarize_members(masked[kept], d.ductility[kept], d.yielded[kept])
-        # the fit's own DF (member 0), with its resolution that no member shows
-        uncertainty = with_df_resolution(uncertainty, d.ductility[0], d.yielded[0])
-        p_overall = overall_state_probabilities(d.ductility, d.yielded)
     yielded, yield_angles = out.yielded, None
     rc_family = out.family is not None and out.family.family != "bilinear"
+    draws = out.draws
     if rc_family:  # DF on the idealised yield of the identified skeleton, its yield decision
         yielded, yield_angles = out.family.yielded, out.family.idealised_yield_rotation
         # the members refit bilinear springs: their spread is not this family's, and their
-        # yield decisions are not its own; the result says "no interval" and why
-        uncertainty = p_overall = None
+        # yield decisions are not its own; the family's own posterior draws are the
+        # uncertainty where it has them (an ensemble asked for), else "no interval" and why
+        draws = (_takeda_draws(window, out.family, settings)
+                 if settings.members > 1 and out.family.family == "takeda"
+                 and window.coverage is not None and window.coverage.is_full else None)
+    uncertainty = p_overall = None
+    if draws is not None:
+        uncertainty, p_overall = _summarize_draws(
+            draws, TAKEDA_DF_RESOLUTION if rc_family else DF_RESOLUTION)
+    base_k1 = window.design.k1 if baseline_k1 is None else baseline_k1
     sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
-                              baseline_k1=window.design.k1 if baseline_k1 is None else baseline_k1,
+                              baseline_k1=None if rc_family else base_k1,
                               uncertainty=uncertainty, yield_angles=yield_angles)
     if out.family is not None:
         sections = with_family(sections, out.family)
+    if rc_family:  # rebased once the sections know their family (what their k1 spread is of)
+        change = k1_change_pct(out.params.k1, base_k1)
+        sections = tuple(s.rebased(float(b), float(d), "baseline") for s, b, d
+                         in zip(sections, np.asarray(base_k1, dtype=float), change))
     # shown with the intervals, no state changes; k1 between unmeasured levels: a model error
     sections = with_identifiability(
         sections, None if window.coverage is None
@@ -814,6 +847,22 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     return IdentificationRun(result=result, reproduced=out.reproduced, initial=out.initial,
                              history=out.history, stages=out.stages,
                              members=out.member_responses)
+
+
+def _summarize_draws(d: EnsembleDraws, df_resolution: float
+                     ) -> tuple[tuple, tuple[float, float, float]]:
+    """The sections' uncertainty and the overall states' probabilities of an ensemble's
+    members (those with finite positive parameters and DFs; ``k2``/``fy`` of a member that
+    did not yield are not identified), the DF interval of a yielded section at least
+    ``df_resolution`` of the fit's own DF (member 0) either side."""
+    kept = _converged_members(d.params, d.ductility)
+    masked = d.params.copy()
+    masked[..., 1:3] = np.where(d.yielded[..., None], masked[..., 1:3], np.nan)
+    uncertainty = summarize_members(masked[kept], d.ductility[kept], d.yielded[kept])
+    # the fit's own DF (member 0), with its resolution that no member shows
+    uncertainty = with_df_resolution(uncertainty, d.ductility[0], d.yielded[0], df_resolution)
+    finite = np.isfinite(d.ductility).all(axis=1)  # a draw the spring family did not admit
+    return uncertainty, overall_state_probabilities(d.ductility[finite], d.yielded[finite])
 
 
 def with_members(settings: IdentifySettings, route: str) -> IdentifySettings:

@@ -144,6 +144,12 @@ class SectionUncertainty:
         state (a member that did not yield is intact); sums to 1.
     members : int
         Number of members.
+
+    For a section of modified-Takeda springs (a Takeda event of the equation-error route,
+    :func:`~pier_monitor.core.identify.families.takeda_draws`) the members are draws of the
+    Takeda fit's posterior, and ``k1``, ``k2``, ``fy`` are the spreads of its counterparts:
+    the small-amplitude stiffness after the event (``k_small_after``, what a change against
+    an earlier event compares), the post-yield slope ``kp`` and the yield moment ``My``.
     """
 
     k1: Spread
