@@ -23,7 +23,8 @@ DF: the skeleton of the combined model is monotonic loading from 0 to the peak `
 ``+1`` on the positive side and ``−1`` on the negative side, the two averaged as an odd
 envelope): ``S(θ) = S_family(θ) + ½ (r(θ, 0, θ, +1) − r(−θ, 0, θ, −1))``, idealised by the
 equal-energy rule (:func:`~pier_monitor.core.model.springs.idealised_yield`, first yield at
-the family's) as the reference does; ``DF = θp / θ*``, at most 1 where the family fit did
+the family's, the Takeda's floor on the elastic branch for a Takeda family) as the
+reference does; ``DF = θp / θ*``, at most 1 where the family fit did
 not yield (:attr:`FamilyChoice.yielded`).  torch is imported only when a grey-box is trained.
 """
 
@@ -38,6 +39,7 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.families import FamilyChoice
 from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.model.springs import (
+    TAKEDA_YIELD_PEAK_FRACTION,
     Skeleton,
     TakedaParameters,
     bilinear_moment,
@@ -199,7 +201,8 @@ def _early_stopped(residual, net, c_s, opt, split, sigma2: float,
 
 def _train_section(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, f: np.ndarray,
                    c0: float, noise_var: float, skel: Skeleton, yielded: bool,
-                   settings: GreyboxSettings, seed: int) -> GreyboxSection:
+                   settings: GreyboxSettings, seed: int, yield_floor: float = 0.0
+                   ) -> GreyboxSection:
     import torch  # optional heavy dependency
 
     t_len = theta.size
@@ -251,11 +254,11 @@ def _train_section(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, f: n
     try:
         comb = Skeleton(grid, s_comb, float((s_comb[-1] - s_comb[-2]) / (grid[-1] - grid[-2])),
                         skel.theta_first_yield)
-        ty = idealised_yield(comb, peak)
+        ty = idealised_yield(comb, peak, yield_floor)
     except InputDataError:
         ty = np.nan
     if not (np.isfinite(ty) and ty > 0):
-        fallback, ty = True, idealised_yield(skel, peak)
+        fallback, ty = True, idealised_yield(skel, peak, yield_floor)
     df = peak / ty if yielded else min(peak / ty, 1.0)
 
     def rms(a: np.ndarray) -> float:
@@ -304,11 +307,13 @@ def fit_greybox(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
         raise InputDataError("theta, theta_dot, g: non-finite values")
     started = time.perf_counter()
     sections = []
+    # the idealisation of the reference family's DF (the Takeda's floor on its elastic branch)
+    floor = TAKEDA_YIELD_PEAK_FRACTION if choice.family == "takeda" else 0.0
     for i in range(n):
         fit = choice.sections[i].fits[choice.family]
         f = family_moment(choice, i, np.ascontiguousarray(th[:, i]))
         sections.append(_train_section(th[:, i], td[:, i], gg[:, i], f, fit.c,
                                        float(np.nan_to_num(nv[i])), fit.skeleton,
                                        bool(choice.yielded[i]), settings,
-                                       settings.seed * 1000 + i))
+                                       settings.seed * 1000 + i, floor))
     return GreyboxResult(choice.family, tuple(sections), time.perf_counter() - started)

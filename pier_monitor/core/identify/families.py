@@ -763,7 +763,7 @@ def _section_draws(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
         try:
             tp = TakedaParameters(*prob.tak_array(xs[j]))
             sk = takeda_skeleton(tp)
-            ratio = peak / idealised_yield(sk, peak)
+            ratio = peak / idealised_yield(sk, peak, TAKEDA_YIELD_PEAK_FRACTION)
         except (InputDataError, ValueError, ZeroDivisionError):
             continue  # a draw the spring does not admit: dropped
         yielded[j] = bool(test and peak > sk.theta_first_yield)
