@@ -70,6 +70,7 @@ TUNING = {
                                    "column (its DF is no longer held out), checked on the "
                                    "BWBN test-bed seeds 300-301 and the Takeda test-bed"),
     "df_resolution": "DF_RESOLUTION 1.5 %: heldout suite, every layout, tuning seeds 620-627",
+    "c_resolution": "C_RESOLUTION 2 %: heldout suite, every layout, tuning seeds 620-627",
 }
 #: Log-normal spread (σ of the natural log) of the design values around the truth.
 DESIGN_LOG_SD = 0.25

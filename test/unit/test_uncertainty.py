@@ -358,6 +358,27 @@ def test_df_interval_of_a_yielded_section_is_never_narrower_than_its_resolution(
     assert out[0].k1 == raw[0].k1 and out[0].p_state == raw[0].p_state
 
 
+
+def test_c_interval_is_never_narrower_than_its_resolution():
+    """Members that agree to 1e-4 on ``c`` get its resolution, ±2 % of the fit's own ``c``;
+    members spread by 10 % keep their own interval; the other quantities are untouched."""
+    from pier_monitor.core.identify.uncertainty import C_RESOLUTION, with_c_resolution
+
+    rng = np.random.default_rng(1)
+    m = 16
+    params = np.tile([1e9, 1e8, 1e6, 2e7], (m, 2, 1)) * (1 + 1e-4 * rng.standard_normal((m, 2, 4)))
+    params[:, 1, 3] = 2e7 * (1 + 0.1 * rng.standard_normal(m))
+    ductility = np.full((m, 2), 2.0)
+    yielded = np.ones((m, 2), bool)
+    raw = summarize_members(params, ductility, yielded)
+    out = with_c_resolution(raw, params[0, :, 3])
+    assert C_RESOLUTION == 0.02
+    assert raw[0].c.hi - raw[0].c.lo < 1e-3 * 2e7
+    assert out[0].c.lo == pytest.approx(params[0, 0, 3] * 0.98)
+    assert out[0].c.hi == pytest.approx(params[0, 0, 3] * 1.02)
+    assert out[1].c == raw[1].c  # wider than the floor
+    assert out[0].k1 == raw[0].k1 and out[0].ductility_factor == raw[0].ductility_factor
+
 def test_a_poorly_identified_df_never_makes_a_section_damaged():
     """Members spread from DF 1 to 1.8 (±30 % and more), 40 % of them past 1.5: the most
     probable state is damaged, but the DF is poorly identified and its interval reaches
