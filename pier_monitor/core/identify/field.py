@@ -449,7 +449,6 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
     p = np.column_stack([np.log(k1), np.log(ratio), np.log(0.85 * pb.f_max), np.log(c),
                          np.zeros(n)])
     stages["increments" if pb.full else "design"] = _params(p)
-    p_first = p.copy()
 
     # 2. each spring on its own (every level measured), gains held
     if pb.full:
@@ -485,29 +484,16 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
     scales = np.r_[np.tile(_X_SCALE, n), np.full(n_eps, 0.2 * pb.gain_sd)]
 
     res_joint = _JointResiduals(pb)
-    # the joint fit's valley of gains against stiffnesses is long and flat: from the
-    # springs' start (fitted with every gain held at one) it may end at the evaluation
-    # limit short of its minimum, so the increments' start (high-frequency increments,
-    # little touched by the gains) is tried beside it.  On the held-out benchmark's tuning
-    # seeds 620-627 (both piers, accel and sparse layouts) the members starting from every
-    # such minimum within reach (:func:`_rival_modes`) took the two elastic Table 1 sections
-    # whose k1 was shown as identified and off by 9 % and -12 % beyond their intervals (seed
-    # 621, accel) to none, and raised the 90 % coverage over all sections on the sparse layout
-    # from 49 to 66 % (k1) and 76 to 87 % (c); states unchanged but two sparse runs, intact ->
-    # suspicious and damaged -> suspicious (true DF 1.43)
-    starts = [p, p_first] if pb.full else [
+    starts = [p] if pb.full else [
         np.column_stack([p[:, :2], np.log(share * pb.f_max), p[:, 3:]])
         for share in settings.fy_shares]
     sol = None
-    modes: list[optimize.OptimizeResult] = []
     for p0 in starts:
         z0 = np.clip(np.r_[p0.ravel(), np.zeros(n_eps)], lo + 1e-9, hi - 1e-9)
         trial = optimize.least_squares(res_joint, z0, bounds=(lo, hi), x_scale=scales,
                                        max_nfev=settings.max_nfev, workers=res_joint.map)
         if sol is None or trial.cost < sol.cost:
             sol = trial
-        modes.append(trial)
-    modes = _rival_modes(modes, sol, settings)
     p = sol.x[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
     eps = sol.x[_COLUMNS * n:]
     # the test weighs the accelerations' evidence only: a displacement fused from a GNSS
@@ -539,31 +525,8 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
                    moment=moment, x=x, v=v, misfit=misfit)
     if members > 1 and (members_if is None or members_if(out)):
         ensemble = _perturbed_members(window, settings, pb, sol, (lo, hi, scales), members, seed,
-                                      modes=modes, residuals=
                                       _fit_residuals(pb, p, eps, settings))
         out = dataclasses.replace(out, members=ensemble)
-    return out
-
-
-def _rival_modes(trials: list[optimize.OptimizeResult], sol: optimize.OptimizeResult,
-                 settings: FieldSettings) -> list[optimize.OptimizeResult]:
-    """The joint fit's minima from its starts that an ensemble's member may prefer: ``sol``
-    (the lowest) first, then every other distinct one whose excess chi-square
-    ``ΔJ = 2 (cost − cost_sol)`` lies within three standard deviations of what the
-    member's perturbations change it by.  A member's data perturbed by ``δ`` (unit
-    variance per residual, times ``sqrt(1 + residual_scale²)`` with the fit's residuals
-    added) changes ``J`` of a solution with residuals ``r`` by ``2 r·δ``, so the excess
-    of a rival ``a`` over ``sol`` by ``2 (r_a − r_sol)·δ``: standard deviation
-    ``2 |r_a − r_sol| sqrt(1 + residual_scale²)``."""
-    sd_unit = np.sqrt(1.0 + settings.residual_scale ** 2)
-    out = [sol]
-    for t in sorted(trials, key=lambda t: t.cost):
-        if any(np.allclose(t.x, q.x, rtol=0.0, atol=1e-3) for q in out):
-            continue  # the same minimum
-        excess = 2.0 * (t.cost - sol.cost)
-        spread = 2.0 * float(np.linalg.norm(t.fun - sol.fun)) * sd_unit
-        if excess <= 3.0 * spread:
-            out.append(t)
     return out
 
 
@@ -651,8 +614,8 @@ def _fit_residuals(pb: _FieldProblem, p: np.ndarray, eps: np.ndarray,
 def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _FieldProblem,
                        sol: optimize.OptimizeResult,
                        box: tuple[np.ndarray, np.ndarray, np.ndarray], members: int, seed: int,
-                       residuals: tuple[np.ndarray, np.ndarray] | None = None,
-                       modes: list[optimize.OptimizeResult] | None = None) -> FieldMembers:
+                       residuals: tuple[np.ndarray, np.ndarray] | None = None
+                       ) -> FieldMembers:
     """The ensemble by randomise-then-optimise (member 0: the fit itself).
 
     Member ``m`` fits the joint problem again on the window perturbed as its sensors allow
@@ -770,16 +733,10 @@ def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _Fie
                 if pm.disp.size:
                     pm.x_meas = pm.x_meas + phase_randomised(rng_res, residuals[1])
 
-            def res_m(zv: np.ndarray, pm: _FieldProblem = pm) -> np.ndarray:
-                return pm.residual(zv[:_COLUMNS * n].reshape(n, _COLUMNS), zv[_COLUMNS * n:])
-
-            best = None
-            for q in modes or [sol]:  # the member's own lowest of the rival minima
-                zq = _gauss_newton(res_m, q.x, np.asarray(q.jac), lo, hi, scales)
-                cq = float(np.sum(res_m(zq) ** 2)) if modes and len(modes) > 1 else 0.0
-                if best is None or cq < best[0]:
-                    best = (cq, zq)
-            z = best[1]
+            z = _gauss_newton(
+                lambda zv, pm=pm: pm.residual(zv[:_COLUMNS * n].reshape(n, _COLUMNS),
+                                              zv[_COLUMNS * n:]),
+                sol.x, np.asarray(sol.jac), lo, hi, scales)
         p = z[:_COLUMNS * n].reshape(n, _COLUMNS).copy()
         eps = z[_COLUMNS * n:]
         base = float(np.sum(pm.residual(p, eps)[:pm.t_len * pm.acc.size] ** 2))
