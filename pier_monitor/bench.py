@@ -761,8 +761,10 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
     ingested and identified in order by :func:`~pier_monitor.events.identify_window` into one
     store (default settings, design values off the truth by :data:`DESIGN_FACTORS`), so the
     second event's ``k1_change_pct`` is against the store's baseline (the first, when it is
-    reliable).  Per layout, one entry per event and a last one comparing, per section: the
-    reported k1 change (the store's, and ``k1`` of event 2 over event 1 directly), the
+    reliable).  Per layout, one entry per event (with its sections' DF intervals, the k1
+    change's 90 % interval and the quantities flagged poorly identified) and a last one
+    comparing, per section: the reported k1 change (the store's, its interval and whether it
+    holds the true change, and ``k1`` of event 2 over event 1 directly), the
     family's small-amplitude stiffness after each event (``k_small_after``) and its change,
     and the truth's small-amplitude (unloading) stiffness before and after each event
     (:func:`~pier_monitor.core.synthetic.rc.rc_truth`).
@@ -804,6 +806,15 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
                     "true_df": [float(v) for v in truth.ductility_factor],
                     "k1": [s.k1 for s in result.sections],
                     "k1_change_pct": [s.k1_change_pct for s in result.sections],
+                    "k1_change_interval_pct": [
+                        None if s.k1_change_lo_pct is None
+                        else [s.k1_change_lo_pct, s.k1_change_hi_pct] for s in result.sections],
+                    "df_interval": [
+                        None if s.uncertainty is None
+                        else _finite_pair(s.uncertainty.ductility_factor.lo,
+                                          s.uncertainty.ductility_factor.hi)
+                        for s in result.sections],
+                    "poorly_identified": [list(s.poorly_identified) for s in result.sections],
                     "k_small_after": [s.k_small_after for s in result.sections],
                     "true_k_small_before": [float(v) for v in truth.k_small_before],
                     "true_k_small_after": [float(v) for v in truth.k_small_after],
@@ -819,6 +830,11 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
             "case": f"rcseq_{hysteresis}_{pier}_{layout}_summary", "seed": seed,
             "layout": layout,
             "reported_k1_change_pct": ev2["k1_change_pct"],
+            "reported_k1_change_interval_pct": ev2["k1_change_interval_pct"],
+            "true_change_in_interval": [
+                None if iv is None else bool(iv[0] <= t <= iv[1])
+                for iv, t in zip(ev2["k1_change_interval_pct"],
+                                 change(ev2["true_k_small_before"], ev2["true_k_small_after"]))],
             "k1_change_pct_event2_vs_event1": change(ev1["k1"], ev2["k1"]),
             "family_k_small_change_pct_event2_vs_event1": change(ev1["k_small_after"],
                                                                  ev2["k_small_after"]),
@@ -830,6 +846,11 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
                                                    ev2["true_k_small_after"]),
             "wall_s": ev1["wall_s"] + ev2["wall_s"], "device": "cpu"})
     return out
+
+
+def _finite_pair(lo: float, hi: float) -> list[float] | None:
+    """``[lo, hi]``, or None where either bound is not finite (strict JSON)."""
+    return [float(lo), float(hi)] if np.isfinite(lo) and np.isfinite(hi) else None
 
 
 def _rc_suite() -> list[dict[str, Any]]:
