@@ -153,7 +153,8 @@ def test_an_unreliable_result_or_another_geometry_stays_as_it_is(base_window):
 
 def test_the_cumulative_state_reads_the_members_interval_scaled(base_window):
     """With an ensemble, the members judged the event alone: the state starts from the
-    cumulative DF, and their DF interval is scaled to it before the straddle rule."""
+    cumulative DF, and their DF interval is scaled to it: the straddle rule reads it, and
+    the result reports it with the cumulative DF."""
     w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
     u = SectionUncertainty(
         k1=Spread(1.2e9, 1e7, 1.18e9, 1.22e9), k2=Spread.undefined(), fy=Spread.undefined(),
@@ -174,6 +175,11 @@ def test_the_cumulative_state_reads_the_members_interval_scaled(base_window):
     cum = own.with_cumulative_ductility(first_event(w1))
     assert cum.sections[0].ductility_factor == pytest.approx(1.6)
     assert cum.sections[0].state == "damaged" and cum.sections[0].reasons == ()
+    # the interval reported with the cumulative DF is the scaled one, holding the DF shown
+    shown = cum.sections[0].uncertainty.ductility_factor
+    assert (shown.lo, shown.hi) == (pytest.approx(1.44), pytest.approx(1.76))
+    assert shown.lo <= cum.sections[0].ductility_factor <= shown.hi
+    assert cum.sections[0].event_ductility_factor == pytest.approx(0.8)
     # a cumulative DF of 1.15 (intact) whose scaled interval [1.035, 1.265] straddles 1.2:
     # suspicious, with the reason
     s1 = replace(s1, max_angle_rad=4.6e-3)

@@ -228,9 +228,10 @@ def decide_state(ductility_factor: float, yielded: bool,
         Given when ``ductility_factor`` is the cumulative DF on an earlier event's (virgin)
         yield rotation (:meth:`IdentificationResult.with_cumulative_ductility`) and this is
         the event's own.  The ensemble's members judged the event's own DF, so their most
-        probable state does not apply: the state starts from the cumulative DF's class, and
-        the straddle rule reads the members' DF interval scaled by
-        ``ductility_factor / event_ductility_factor``.
+        probable state does not apply: the state starts from the cumulative DF's class.  The
+        uncertainty's DF interval is then the cumulative one (the members' interval scaled by
+        the cumulative DF over the event's own, :meth:`SectionResult.cumulative`), which the
+        straddle rule reads.
 
     Returns
     -------
@@ -251,11 +252,6 @@ def decide_state(ductility_factor: float, yielded: bool,
     df = uncertainty.ductility_factor
     if event_ductility_factor is not None:  # cumulative: the members judged the event alone
         state = classify_ductility(ductility_factor)
-        scale = (ductility_factor / event_ductility_factor
-                 if math.isfinite(event_ductility_factor) and event_ductility_factor > 0
-                 else math.nan)
-        df = replace(df, mean=df.mean * scale, std=df.std * scale, lo=df.lo * scale,
-                     hi=df.hi * scale)
     if state == DamageState.DAMAGED and df.lo < DAMAGED_DF and _too_wide(df, "DF"):
         # a poorly identified DF never drives a state: damaged only on an interval past 1.5
         state = DamageState.SUSPICIOUS
@@ -464,7 +460,16 @@ class SectionResult:
         own = self if not self.ductility_reference else replace(
             self, ductility_factor=self.event_ductility_factor,
             yield_angle_rad=self.event_yield_angle_rad)
+        # the members' DF interval goes with the DF shown: scaled by the cumulative DF over
+        # the one it belonged to (the reference rotation's own uncertainty is not in it)
+        u = self.uncertainty
+        if u is not None and self.ductility_factor > 0:
+            scale = df / float(self.ductility_factor)
+            s = u.ductility_factor
+            u = replace(u, ductility_factor=replace(s, mean=s.mean * scale, std=s.std * scale,
+                                                    lo=s.lo * scale, hi=s.hi * scale))
         out = replace(self, ductility_factor=df, yield_angle_rad=theta_y, yielded=yielded,
+                      uncertainty=u,
                       event_ductility_factor=float(own.ductility_factor),
                       event_yield_angle_rad=float(own.yield_angle_rad),
                       ductility_reference=(f"cumulative: peak rotation so far {peak:.4g} rad "
