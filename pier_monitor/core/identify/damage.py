@@ -204,7 +204,7 @@ def decide_state(ductility_factor: float, yielded: bool,
                  uncertainty: SectionUncertainty | None = None, *,
                  k1_loss: str | None = None,
                  evidence: Sequence[str] = (),
-                 event_ductility_factor: float | None = None
+                 cumulative: bool = False
                  ) -> tuple[DamageState, tuple[str, ...]]:
     """The state of a section and the reasons for every promotion (see the module's rules).
 
@@ -224,14 +224,13 @@ def decide_state(ductility_factor: float, yielded: bool,
     evidence : sequence of str
         Reason lines of the self-check (a large energy index, a model misfit): each makes
         the section at least suspicious, with or without an uncertainty (rules 5-6).
-    event_ductility_factor : float, optional
-        Given when ``ductility_factor`` is the cumulative DF on an earlier event's (virgin)
-        yield rotation (:meth:`IdentificationResult.with_cumulative_ductility`) and this is
-        the event's own.  The ensemble's members judged the event's own DF, so their most
-        probable state does not apply: the state starts from the cumulative DF's class.  The
-        uncertainty's DF interval is then the cumulative one (the members' interval scaled by
-        the cumulative DF over the event's own, :meth:`SectionResult.cumulative`), which the
-        straddle rule reads.
+    cumulative : bool
+        True when ``ductility_factor`` is the cumulative DF on an earlier event's (virgin)
+        yield rotation (:meth:`IdentificationResult.with_cumulative_ductility`).  The
+        ensemble's members judged the event's own DF, so their most probable state does not
+        apply: the state starts from the cumulative DF's class.  The uncertainty's DF interval
+        is then the cumulative one (the members' interval scaled by the cumulative DF over the
+        event's own, :meth:`SectionResult.cumulative`), which the straddle rule reads.
 
     Returns
     -------
@@ -250,7 +249,7 @@ def decide_state(ductility_factor: float, yielded: bool,
         state = min(state, DamageState.SUSPICIOUS)
     reasons = []
     df = uncertainty.ductility_factor
-    if event_ductility_factor is not None:  # cumulative: the members judged the event alone
+    if cumulative:  # the members judged the event alone
         state = classify_ductility(ductility_factor)
     if state == DamageState.DAMAGED and df.lo < DAMAGED_DF and _too_wide(df, "DF"):
         # a poorly identified DF never drives a state: damaged only on an interval past 1.5
@@ -420,16 +419,10 @@ class SectionResult:
                 loss = k1_loss_reason(change_pct, interval, baseline_label)
         state, reasons = decide_state(self.ductility_factor, self.yielded, u, k1_loss=loss,
                                       evidence=self.evidence,
-                                      event_ductility_factor=self._event_df_if_cumulative())
+                                      cumulative=bool(self.ductility_reference))
         return replace(self, k1_change_pct=float(change_pct), k1_change_lo_pct=lo,
                        k1_change_hi_pct=hi, k1_change_scatter_pct=scatter,
                        state=state.name.lower(), reasons=reasons)
-
-    def _event_df_if_cumulative(self) -> float | None:
-        """The event's own DF where the DF is a cumulative one (see the class), else None."""
-        if not self.ductility_reference:
-            return None
-        return math.nan if self.event_ductility_factor is None else self.event_ductility_factor
 
     def cumulative(self, baseline: SectionResult, peak_so_far: float,
                    baseline_label: str) -> SectionResult:
@@ -475,7 +468,7 @@ class SectionResult:
                       ductility_reference=(f"cumulative: peak rotation so far {peak:.4g} rad "
                                            f"on {what}, {theta_y:.4g} rad"))
         state, reasons = decide_state(df, yielded, out.uncertainty, evidence=out.evidence,
-                                      event_ductility_factor=out._event_df_if_cumulative())
+                                      cumulative=True)
         # the k1-loss reason of a rebase stays (it does not depend on the DF)
         loss = tuple(r for r in self.reasons if r.startswith("k1 ") and "cracking" in r)
         if loss:
