@@ -39,12 +39,12 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.families import FamilyChoice
 from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.model.springs import (
-    TAKEDA_YIELD_PEAK_FRACTION,
     Skeleton,
     TakedaParameters,
     bilinear_moment,
     idealised_yield,
     takeda_moment,
+    yield_peak_fraction,
 )
 
 __all__ = ["GreyboxSettings", "GreyboxSection", "GreyboxResult", "family_moment",
@@ -308,7 +308,7 @@ def fit_greybox(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
     started = time.perf_counter()
     sections = []
     # the idealisation of the reference family's DF (the Takeda's floor on its elastic branch)
-    floor = TAKEDA_YIELD_PEAK_FRACTION if choice.family == "takeda" else 0.0
+    floor = yield_peak_fraction(choice.family)
     for i in range(n):
         fit = choice.sections[i].fits[choice.family]
         f = family_moment(choice, i, np.ascontiguousarray(th[:, i]))

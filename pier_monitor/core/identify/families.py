@@ -132,7 +132,6 @@ from pier_monitor.core.model.config import PierGeometry
 from pier_monitor.core.model.link_model import angle_matrix
 from pier_monitor.core.model.springs import (
     TAKEDA_ALPHA,
-    TAKEDA_YIELD_PEAK_FRACTION,
     Skeleton,
     TakedaParameters,
     _bilinear_kernel,
@@ -141,6 +140,7 @@ from pier_monitor.core.model.springs import (
     idealised_yield,
     takeda_skeleton,
     takeda_unloading_stiffness,
+    yield_peak_fraction,
 )
 
 __all__ = ["FamilyFit", "SectionFamilies", "FamilyChoice", "moment_noise_variance",
@@ -637,7 +637,7 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
               f"N·m (noise {np.sqrt(s.noise_var):.3g} N·m, n_eff {s.n_eff:.0f})")
 
     peak = np.array([s.peak_rotation for s in sections])
-    floor = TAKEDA_YIELD_PEAK_FRACTION if family == "takeda" else 0.0
+    floor = yield_peak_fraction(family)
     ty_id = np.array([idealised_yield(s.fits[family].skeleton, s.peak_rotation, floor)
                       for s in sections])
     yielded = np.array([s.yielded[family] for s in sections])
@@ -763,7 +763,7 @@ def _section_draws(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
         try:
             tp = TakedaParameters(*prob.tak_array(xs[j]))
             sk = takeda_skeleton(tp)
-            ratio = peak / idealised_yield(sk, peak, TAKEDA_YIELD_PEAK_FRACTION)
+            ratio = peak / idealised_yield(sk, peak, yield_peak_fraction("takeda"))
         except (InputDataError, ValueError, ZeroDivisionError):
             continue  # a draw the spring does not admit: dropped
         yielded[j] = bool(test and peak > sk.theta_first_yield)

@@ -48,9 +48,9 @@ from pier_monitor.core.identify.field import (FieldFit, FieldSettings, _FieldPro
                                               _smooth_derivative)
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.springs import (
-    TAKEDA_ALPHA, TAKEDA_STATE_SIZE, TAKEDA_YIELD_PEAK_FRACTION, TakedaParameters, _takeda_init,
+    TAKEDA_ALPHA, TAKEDA_STATE_SIZE, TakedaParameters, _takeda_init,
     _takeda_step, bilinear_skeleton, idealised_yield, takeda_skeleton,
-    takeda_unloading_stiffness)
+    takeda_unloading_stiffness, yield_peak_fraction)
 
 __all__ = ["MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "YIELD_SHARE", "damped_takeda",
            "fit_field_families"]
@@ -519,7 +519,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     th_out, mo_out = (theta, moment) if family == "takeda" else (fit.theta, fit.moment)
     pk = np.array([s.peak_rotation for s in sections])
     fam_yielded = np.array([s.yielded[family] for s in sections])
-    floor = TAKEDA_YIELD_PEAK_FRACTION if family == "takeda" else 0.0
+    floor = yield_peak_fraction(family)
     ty_id = np.array([idealised_yield(s.fits[family].skeleton, max(s.peak_rotation, 1e-300),
                                       floor) for s in sections])
     df = np.where(fam_yielded, pk / ty_id, np.minimum(pk / ty_id, 1.0))

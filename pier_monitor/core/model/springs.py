@@ -56,6 +56,7 @@ __all__ = [
     "skeleton",
     "idealised_yield",
     "TAKEDA_YIELD_PEAK_FRACTION",
+    "yield_peak_fraction",
 ]
 
 #: The spring families of this module.
@@ -406,6 +407,13 @@ def skeleton(theta: np.ndarray | float, params: TakedaParameters) -> np.ndarray:
 #: Takeda springs (E-Defense strong 300 / 301 and just-yield 300, Table-1 strong 300): every
 #: section's DF identical with and without the floor.
 TAKEDA_YIELD_PEAK_FRACTION = 0.8
+
+
+def yield_peak_fraction(family: str) -> float:
+    """:func:`idealised_yield`'s ``min_yield_fraction`` for a fitted skeleton of ``family``:
+    :data:`TAKEDA_YIELD_PEAK_FRACTION` for the Takeda (``"takeda"``), 0 (the definition
+    itself) for the bilinear, whose skeleton is its own bilinearisation."""
+    return TAKEDA_YIELD_PEAK_FRACTION if family == "takeda" else 0.0
 
 
 def _rotation_at(skel: Skeleton, moment: float) -> float:
