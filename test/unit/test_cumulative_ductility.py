@@ -190,6 +190,56 @@ def test_the_cumulative_state_reads_the_members_interval_scaled(base_window):
     assert cum.sections[0].reasons == ("DF 90 % interval [1.03, 1.26] straddles 1.2",)
 
 
+def test_the_cumulative_df_interval_carries_the_reference_rotation_uncertainty(base_window):
+    """The cumulative DF is this event's peak over the baseline's yield rotation: its interval
+    holds the baseline's uncertainty of that rotation as well as this event's members'."""
+    w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
+    u = SectionUncertainty(
+        k1=Spread(1.2e9, 1e7, 1.18e9, 1.22e9), k2=Spread.undefined(), fy=Spread.undefined(),
+        c=Spread(2e7, 1e6, 1.9e7, 2.1e7), ductility_factor=Spread(0.8, 0.05, 0.72, 0.88),
+        p_yielded=0.0, p_state=(1.0, 0.0, 0.0), members=32)
+    first = first_event(w1)
+    # the baseline's base section yielded (θy 4e-3 rad, DF 1.5) with a DF interval 10 % below
+    # and 20 % above its mean: a yield rotation that may be larger or smaller
+    base_u = replace(u, ductility_factor=Spread(1.5, 0.1, 1.35, 1.8), p_yielded=1.0,
+                     p_state=(0.0, 0.0, 1.0))
+    first = replace(first, sections=(replace(first.sections[0], uncertainty=base_u),
+                                     *first.sections[1:]))
+    own = second_event(w2)
+    s1 = replace(own.sections[0], uncertainty=u, ductility_factor=0.8, max_angle_rad=6.4e-3,
+                 yield_angle_rad=8e-3, state="intact")
+    own = replace(own, sections=(s1, *own.sections[1:]))
+    cum = own.with_cumulative_ductility(first)
+    shown = cum.sections[0].uncertainty.ductility_factor
+    # DF 1.6; the members' scaled bounds 10 % either side, the reference's 10 % below and
+    # 20 % above, in quadrature: 1.6 (1 - 0.1 √2) and 1.6 (1 + √(0.1² + 0.2²))
+    assert cum.sections[0].ductility_factor == pytest.approx(1.6)
+    assert shown.lo == pytest.approx(1.6 * (1 - 0.1 * math.sqrt(2)))
+    assert shown.hi == pytest.approx(1.6 * (1 + math.hypot(0.1, 0.2)))
+    # now the interval straddles 1.5 (damaged either way: a straddle never demotes)
+    assert cum.sections[0].state == "damaged"
+    # a baseline that did not yield: the reference is this event's fy over the baseline's
+    # k1, so its k1 spread (5 % either side) widens the interval of a section yielded now
+    first = first_event(w1)
+    k1_u = replace(u, k1=Spread(2e9, 5e7, 1.9e9, 2.1e9))
+    first = replace(first, sections=(first.sections[0],
+                                     replace(first.sections[1], uncertainty=k1_u),
+                                     *first.sections[2:]))
+    s2 = replace(own.sections[1], uncertainty=replace(u, ductility_factor=Spread(
+        1.25, 0.05, 1.1875, 1.3125)))
+    own = replace(own, sections=(own.sections[0], s2, *own.sections[2:]))
+    cum = own.with_cumulative_ductility(first)
+    df = 5e-3 / (6e6 / 2e9)
+    shown = cum.sections[1].uncertainty.ductility_factor
+    assert cum.sections[1].ductility_factor == pytest.approx(df)
+    assert (shown.lo, shown.hi) == (pytest.approx(df * (1 - math.hypot(0.05, 0.05))),
+                                    pytest.approx(df * (1 + math.hypot(0.05, 0.05))))
+    # without the baseline's spread the interval is the members' scaled alone
+    cum = own.with_cumulative_ductility(first_event(w1))
+    shown = cum.sections[1].uncertainty.ductility_factor
+    assert (shown.lo, shown.hi) == (pytest.approx(df * 0.95), pytest.approx(df * 1.05))
+
+
 def test_the_k1_change_between_takeda_events_is_of_the_small_amplitude_stiffness(base_window):
     w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
     n = w1.n_levels

@@ -200,6 +200,42 @@ def _may_have_yielded(yielded: bool, uncertainty: SectionUncertainty | None) -> 
             and uncertainty.p_yielded >= P_YIELD_LOW)
 
 
+def _reference_spread(baseline: SectionResult) -> Spread | None:
+    """The baseline's spread that the cumulative DF's reference rotation inherits, as a
+    spread whose relative bounds move the DF the same way (None where the baseline has no
+    members' spread).
+
+    Where the baseline yielded the reference is its yield rotation ``θ*`` and its DF interval
+    is that of ``θp / θ*``: a DF low in it is a ``θ*`` high in it, so a cumulative DF low too.
+    Otherwise the reference is ``fy / k1_baseline`` and the cumulative DF goes with the
+    baseline's ``k1``.
+    """
+    u = baseline.uncertainty
+    if u is None:
+        return None
+    s = u.ductility_factor if baseline.yielded else u.k1
+    return s if s.defined else None
+
+
+def _cumulative_df_spread(own: Spread, event_df: float, df: float,
+                          reference: Spread | None) -> Spread:
+    """The cumulative DF's spread from the event's members' DF spread ``own`` (about the
+    event's DF ``event_df``): scaled to the cumulative ``df``, and where ``reference`` is
+    given (:func:`_reference_spread`) its relative bounds and scatter combined in quadrature
+    with the event's, taken about ``df`` (as :func:`~.uncertainty.k1_change_interval` combines
+    two events' ``k1``)."""
+    scale = df / event_df
+    s = replace(own, mean=own.mean * scale, std=own.std * scale, lo=own.lo * scale,
+                hi=own.hi * scale)
+    if reference is None or not s.defined or not df > 0:
+        return s
+    b_lo, b_hi, b_s = reference.relative_bounds()
+    a_lo, a_hi = max(df - s.lo, 0.0) / df, max(s.hi - df, 0.0) / df
+    std = s.std if math.isfinite(s.std) else 0.0
+    return replace(s, lo=df * (1.0 - math.hypot(a_lo, b_lo)),
+                   hi=df * (1.0 + math.hypot(a_hi, b_hi)), std=math.hypot(std, df * b_s))
+
+
 def decide_state(ductility_factor: float, yielded: bool,
                  uncertainty: SectionUncertainty | None = None, *,
                  k1_loss: str | None = None,
@@ -436,6 +472,11 @@ class SectionResult:
         reference, at most 1 where it yielded in neither (as for a single event).  The state
         is decided again on that DF.  A section without a DF (NaN), or a reference that is
         no positive finite rotation, stays as it is.
+
+        The DF interval goes with the DF shown: this event's members' interval, scaled by the
+        cumulative DF over the event's own, and, where the section yielded, widened by the
+        reference rotation's own uncertainty, which the baseline identified
+        (:func:`_cumulative_df_spread`).
         """
         if not math.isfinite(self.ductility_factor):
             return self
@@ -453,14 +494,11 @@ class SectionResult:
         own = self if not self.ductility_reference else replace(
             self, ductility_factor=self.event_ductility_factor,
             yield_angle_rad=self.event_yield_angle_rad)
-        # the members' DF interval goes with the DF shown: scaled by the cumulative DF over
-        # the one it belonged to (the reference rotation's own uncertainty is not in it)
         u = self.uncertainty
         if u is not None and self.ductility_factor > 0:
-            scale = df / float(self.ductility_factor)
-            s = u.ductility_factor
-            u = replace(u, ductility_factor=replace(s, mean=s.mean * scale, std=s.std * scale,
-                                                    lo=s.lo * scale, hi=s.hi * scale))
+            u = replace(u, ductility_factor=_cumulative_df_spread(
+                u.ductility_factor, float(self.ductility_factor), df,
+                _reference_spread(baseline) if yielded else None))
         out = replace(self, ductility_factor=df, yield_angle_rad=theta_y, yielded=yielded,
                       uncertainty=u,
                       event_ductility_factor=float(own.ductility_factor),

@@ -137,6 +137,17 @@ class Spread:
         """``std / |mean|`` (dimensionless); NaN when undefined or the mean is zero."""
         return self.std / abs(self.mean) if self.defined and self.mean != 0 else math.nan
 
+    def relative_bounds(self) -> tuple[float, float, float]:
+        """``((mean − lo) / mean, (hi − mean) / mean, std / mean)`` (dimensionless): how far
+        the 90 % bounds lie below and above the mean, and the scatter, relative to it.  Zeros
+        for a spread that cannot say (undefined, a mean that is not positive); a NaN standard
+        deviation (one member) counts as zero."""
+        if not self.defined or not self.mean > 0:
+            return 0.0, 0.0, 0.0
+        std = self.relative_std()
+        return ((self.mean - self.lo) / self.mean, (self.hi - self.mean) / self.mean,
+                std if math.isfinite(std) else 0.0)
+
 
 @dataclass(frozen=True)
 class SectionUncertainty:
@@ -397,15 +408,9 @@ def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
     if not spread.defined or not spread.mean > 0:
         raise InputDataError(f"k1 change interval: the spread of k1 is undefined ({spread})")
 
-    def rel(s: Spread | None) -> tuple[float, float, float]:
-        if s is None or not s.defined or not s.mean > 0:
-            return 0.0, 0.0, 0.0
-        std = s.relative_std()
-        return ((s.mean - s.lo) / s.mean, (s.hi - s.mean) / s.mean,
-                std if math.isfinite(std) else 0.0)
-
-    a_lo, a_hi, a_s = rel(spread)
-    b_lo, b_hi, b_s = rel(baseline_spread)
+    a_lo, a_hi, a_s = spread.relative_bounds()
+    b_lo, b_hi, b_s = (baseline_spread.relative_bounds() if baseline_spread is not None
+                       else (0.0, 0.0, 0.0))
     r = k1 / baseline_k1
     return K1ChangeInterval(lo_pct=100.0 * (r * (1.0 - math.hypot(a_lo, b_hi)) - 1.0),
                             hi_pct=100.0 * (r * (1.0 + math.hypot(a_hi, b_lo)) - 1.0),
