@@ -113,8 +113,8 @@ IDENTIFIABILITY_LIMITS = {"k1": 0.10, "k2": 0.30, "fy": 0.30, "c": 0.30, "DF": 0
 #: What the outputs say where there is no interval: a single identification.
 NO_INTERVAL = "no interval (1 member)"
 #: ... and where the spring family chosen is not the bilinear and its own posterior was not
-#: drawn (the field route): the ensemble's members refit bilinear springs, so their spread is
-#: not the chosen family's and is not shown.
+#: drawn: the ensemble's members refit bilinear springs, so their spread is not the chosen
+#: family's and is not shown.
 NO_INTERVAL_FAMILY = ("no interval (modified-Takeda springs chosen; the ensemble refits "
                       "bilinear springs)")
 
@@ -621,9 +621,9 @@ class IdentificationResult:
         """What the sections' intervals are, as result.json says it: ``90 % interval over M
         members`` for an ensemble, :data:`NO_INTERVAL` for a single identification,
         :data:`NO_INTERVAL_FAMILY` where a non-bilinear family was chosen and its own
-        posterior not drawn (the field route); ``90 % interval over M draws of the
-        modified-Takeda fit's posterior`` where it was
-        (:func:`~pier_monitor.core.identify.families.takeda_draws`)."""
+        posterior not drawn; ``90 % interval over M draws of the modified-Takeda fit's
+        posterior`` where it was (:func:`~pier_monitor.core.identify.families.takeda_draws`
+        on a fully measured window, the field reconstruction's posterior otherwise)."""
         m = self.members
         bilinear = (self.family or {}).get("family") in (None, "bilinear")
         if m >= 2:

@@ -287,6 +287,10 @@ class FamilyChoice:
     stiffness_degradation : ndarray
         ``small_amplitude_stiffness / initial_stiffness − 1`` (negative = loss; 0 for the
         bilinear, which has none).
+    draws : EnsembleDraws or None
+        The chosen family's own posterior draws where the reconstruction that chose it drew
+        them (:func:`~pier_monitor.core.identify.field_families.fit_field_families` with
+        ``n_draws``), as :func:`takeda_draws` lays them out; None otherwise.
     """
 
     family: str
@@ -303,6 +307,7 @@ class FamilyChoice:
     secant_peak_stiffness: np.ndarray
     small_amplitude_stiffness: np.ndarray
     stiffness_degradation: np.ndarray = field(repr=False)
+    draws: EnsembleDraws | None = field(default=None, repr=False)
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary (per-family parameters and scores per section)."""

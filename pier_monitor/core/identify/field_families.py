@@ -40,9 +40,10 @@ from scipy import optimize
 from pier_monitor.core._blas import single_blas_thread
 from pier_monitor.core._jit import jit
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.identify.ensemble import EnsembleDraws
 from pier_monitor.core.identify.equation_error import SpringFit
 from pier_monitor.core.identify.families import (
-    N_PARAMS, FamilyChoice, FamilyFit, SectionFamilies, _TAK_HI, _TAK_LO,
+    N_PARAMS, FamilyChoice, FamilyFit, SectionFamilies, _PRIOR_SD, _TAK_HI, _TAK_LO,
     fit_section_families)
 from pier_monitor.core.identify.field import (FieldFit, FieldSettings, _FieldProblem,
                                               _smooth_derivative)
@@ -334,7 +335,7 @@ def _equation_error_start(pb: _FieldProblem, tf: _TakedaField, fit: FieldFit,
 
 @single_blas_thread
 def fit_field_families(window: MeasuredWindow, fit: FieldFit,
-                       settings: FieldSettings | None = None
+                       settings: FieldSettings | None = None, n_draws: int = 0, seed: int = 0
                        ) -> tuple[FamilyChoice, np.ndarray, np.ndarray] | None:
     """Reconstruct the window with modified-Takeda springs and choose the family by the BIC.
 
@@ -346,6 +347,11 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         Its bilinear reconstruction (the family's reference, and the start of the gains).
     settings : FieldSettings, optional
         The reconstruction's settings (weights, misfit floor, yield test).
+    n_draws : int
+        Members of the Takeda's posterior to draw where it is chosen (0: none;
+        :func:`_posterior_draws`), carried by the choice's ``draws``.
+    seed : int
+        Of the draws.
 
     Returns
     -------
@@ -533,10 +539,79 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
             small[i] = takeda_unloading_stiffness(tp, pk[i])
         else:
             init[i] = sec_y[i] = small[i] = fit.params.k1[i]
+    draws = None
+    if family == "takeda" and n_draws >= 2:
+        draws = _posterior_draws(tf, sol.jac, sol.x, chi2_t, yielded, n_draws, seed,
+                                 lo_f, hi_f)
     choice = FamilyChoice(family=family, sections=tuple(sections), bic_total=bic,
                           reason=reason, peak_rotation=pk, idealised_yield_rotation=ty_id,
                           ductility_factor=df, yielded=fam_yielded,
                           k1=np.asarray(fit.params.k1, dtype=float), initial_stiffness=init,
                           secant_yield_stiffness=sec_y, secant_peak_stiffness=sec_p,
-                          small_amplitude_stiffness=small, stiffness_degradation=small / init - 1.0)
+                          small_amplitude_stiffness=small, stiffness_degradation=small / init - 1.0,
+                          draws=draws)
     return choice, th_out, mo_out
+
+
+def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2: float,
+                     yielded: np.ndarray, n_draws: int, seed: int, lo: np.ndarray,
+                     hi: np.ndarray) -> EnsembleDraws:
+    """Draws of the Takeda reconstruction's posterior, as an ensemble's members.
+
+    A Laplace (Gauss–Newton) posterior of every spring's parameters and the gains together
+    at the fit ``z_hat``: precision ``J_dᵀ J_d / s² + J_pᵀ J_p``, ``J`` the fit's Jacobian
+    (its data rows ``d``, already in units of their standard deviations with the samples
+    decorrelated, and its prior and gain rows ``p``), ``s² = χ² / max(n_eff − p, 1)`` the
+    reconstruction's own misfit per independent sample (at least 1: the noise model's
+    floor), ``p`` the Takeda parameters.  Each draw, clipped to the bounds, is
+    reconstructed again (its gains move the moments, its springs the angles): its peak
+    rotations, its skeletons' small-amplitude stiffness after the event, its DF on the
+    idealised yield rotation (the same floor as the fit's), and whether it yielded (the
+    fit's yield test, and the draw's first yield within its window; otherwise its DF is at
+    most 1).  Draw 0 is the fit itself; a draw whose reconstruction diverges is NaN (dropped
+    as an unconverged member).
+
+    Returns
+    -------
+    EnsembleDraws
+        ``params`` (M, N, 4) ``[k_small_after, kp, My, c]`` (N·m/rad, N·m/rad, N·m,
+        N·m·s/rad), as :func:`~pier_monitor.core.identify.families.takeda_draws`.
+    """
+    pb, n = tf.pb, tf.pb.n
+    j = np.asarray(jac.toarray() if hasattr(jac, "toarray") else jac, dtype=float)
+    j_d, j_p = j[:tf.n_data], j[tf.n_data:]
+    var = max(chi2 / max(tf.n_eff - N_PARAMS["takeda"] * n, 1.0), 1.0)
+    # the equation-error posterior's weak prior where the fit has none: it keeps what the
+    # window does not inform (the pinching of a section below cracking, kp of one that never
+    # yielded) from drawing past the bounds
+    weak = np.zeros(z_hat.size)
+    for i in range(n):
+        weak[i * _NT:i * _NT + 7] = np.where(np.isfinite(tf.prior_sd[:7]), 0.0,
+                                             _PRIOR_SD ** -2.0)
+    w, v = np.linalg.eigh(j_d.T @ j_d / var + j_p.T @ j_p + np.diag(weak))
+    z = np.random.default_rng([seed, 18, 2]).standard_normal((n_draws, z_hat.size))
+    z = (z @ (v / np.sqrt(np.maximum(w, 1e-300))).T)
+    z[0] = 0.0
+    zs = np.clip(z_hat + z, lo, hi)
+    floor = yield_peak_fraction("takeda")
+    params = np.full((n_draws, n, 4), np.nan)
+    df = np.full((n_draws, n), np.nan)
+    drawn_yielded = np.zeros((n_draws, n), dtype=bool)
+    for m in range(n_draws):
+        q, eps = zs[m, :_NT * n].reshape(n, _NT), zs[m, _NT * n:]
+        theta = tf.angles(q, pb.moments(eps))[0]
+        if not np.all(np.isfinite(theta)):
+            continue
+        peak = np.abs(theta).max(axis=0)
+        for i in range(n):
+            try:
+                tp = tf.params(q, i)
+                sk = takeda_skeleton(tp)
+                ratio = peak[i] / idealised_yield(sk, max(peak[i], 1e-300), floor)
+            except (InputDataError, ValueError, ZeroDivisionError):
+                continue  # a draw the spring does not admit: dropped
+            drawn_yielded[m, i] = bool(yielded[i] and peak[i] > sk.theta_first_yield)
+            df[m, i] = ratio if drawn_yielded[m, i] else min(ratio, 1.0)
+            c = max(np.exp(q[i, _NT - 1]), tf.k_ref[i] * pb.dt / 20.0)
+            params[m, i] = (takeda_unloading_stiffness(tp, peak[i]), tp.kp, tp.my, c)
+    return EnsembleDraws(params=params, ductility=df, yielded=drawn_yielded)

@@ -449,14 +449,18 @@ class FieldMethod:
         """Reconstruct the springs and the unmeasured motion from the physics.
 
         The family is chosen before the ensemble is drawn: its members refit bilinear
-        springs, so where another family is chosen they would be dropped (no interval,
-        :data:`~pier_monitor.core.identify.damage.NO_INTERVAL_FAMILY`) and are not drawn."""
+        springs, so where the Takeda is chosen they are not drawn, and the Takeda
+        reconstruction's own posterior draws are the members instead
+        (:func:`~pier_monitor.core.identify.field_families.fit_field_families` with
+        ``n_draws``, carried by the family choice)."""
         chosen = None
 
         def bilinear_kept(fit: FieldFit) -> bool:
             nonlocal chosen
             if not window.coverage.is_full:  # the family by evidence (full windows: EE route)
-                chosen = fit_field_families(window, fit, settings.field_settings)
+                chosen = fit_field_families(
+                    window, fit, settings.field_settings,
+                    n_draws=settings.members if settings.members > 1 else 0, seed=settings.seed)
             return chosen is None or chosen[0].family == "bilinear"
 
         fit = fit_field(window, settings.field_settings, members=settings.members,
@@ -815,7 +819,8 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         # the members refit bilinear springs: their spread is not this family's, and their
         # yield decisions are not its own; the family's own posterior draws are the
         # uncertainty where it has them (an ensemble asked for), else "no interval" and why
-        draws = (_takeda_draws(window, out.family, settings)
+        draws = (out.family.draws if out.family.draws is not None
+                 else _takeda_draws(window, out.family, settings)
                  if settings.members > 1 and out.family.family == "takeda"
                  and window.coverage is not None and window.coverage.is_full else None)
     uncertainty = p_overall = None
