@@ -707,6 +707,9 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
     df = np.array([s.ductility_factor for s in result.sections])
     err = 100.0 * np.abs(df / true_df - 1.0)
     misfit = result.model_misfit or {}
+    interval = [None if s.uncertainty is None else
+                [s.uncertainty.ductility_factor.lo, s.uncertainty.ductility_factor.hi]
+                for s in result.sections]
     return {
         "case": f"rc_{hyst}_{pier}_{layout}_{shaking}", "seed": seed, "split": "held_out",
         "hysteresis": hyst, "pier": pier, "layout": layout, "shaking": shaking,
@@ -716,6 +719,10 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
         "states": states, "true_df": true_df.tolist(), "df": df.tolist(),
         "reinforcement_yielded": yielded.tolist(),
         "df_err_pct_yielded": [float(e) for e, y in zip(err, yielded) if y],
+        "df_interval": interval,
+        # per yielded section: whether its DF interval holds the truth (None: no interval)
+        "df_in_interval_yielded": [None if iv is None else bool(iv[0] <= t <= iv[1])
+                                   for iv, t, y in zip(interval, true_df, yielded) if y],
         "intact_at_df_ge_1.5": int(sum(st == "intact" and d >= 1.5
                                        for st, d in zip(states, true_df))),
         "damaged_where_elastic": int(sum(st == "damaged" and not y
@@ -724,9 +731,17 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
         "wall_s": round(wall, 2), "device": "cpu"}
 
 
+def _held_of(held: list[bool | None]) -> dict[str, int]:
+    """``{"held": ..., "with_interval": ..., "without_interval": ...}`` of per-section
+    coverage flags (None: no interval)."""
+    with_iv = [h for h in held if h is not None]
+    return {"held": int(sum(with_iv)), "with_interval": len(with_iv),
+            "without_interval": len(held) - len(with_iv)}
+
+
 def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
     """Per hysteresis and layout: runs, family chosen, misfit fired, DF error on the
-    yielded sections (mean, max), sections intact at a true DF >= 1.5, damaged where the
+    yielded sections (mean, max), their DF interval coverage, sections intact at a true DF >= 1.5, damaged where the
     reinforcement stayed elastic, unreliable runs, the slowest event."""
     out: dict[str, Any] = {"case": "rc_summary", "groups": {}, "wall_s": 0.0, "device": "cpu"}
     for hyst in sorted({r["hysteresis"] for r in runs}):
@@ -742,6 +757,10 @@ def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
                 "misfit_fired": sum(r["misfit_fires"] for r in sel),
                 "df_err_pct_yielded_mean": float(np.mean(errs)) if errs else None,
                 "df_err_pct_yielded_max": float(np.max(errs)) if errs else None,
+                # yielded sections whose DF interval holds the truth, of those with one
+                # (reliable runs only: an unreliable result shows no state), and without one
+                "df_coverage_yielded": _held_of([c for r in sel if not r["unreliable"]
+                                                 for c in r["df_in_interval_yielded"]]),
                 "intact_at_df_ge_1.5": sum(r["intact_at_df_ge_1.5"] for r in sel),
                 "damaged_where_elastic": sum(r["damaged_where_elastic"] for r in sel),
                 "unreliable_runs": sum(r["unreliable"] for r in sel),
