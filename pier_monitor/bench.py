@@ -752,7 +752,7 @@ def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
             errs = [e for r in sel for e in r["df_err_pct_yielded"]]
             out["groups"][f"{hyst}/{layout}"] = {
                 "runs": len(sel),
-                "family": {f: sum(r["family"] == f for r in sel)
+                "family": {f: sum(str(r["family"]) == f for r in sel)
                            for f in sorted({str(r["family"]) for r in sel})},
                 "misfit_fired": sum(r["misfit_fires"] for r in sel),
                 "df_err_pct_yielded_mean": float(np.mean(errs)) if errs else None,
