@@ -716,6 +716,10 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
         "method": "equation_error" if window.coverage.is_full else "field",
         "family": (result.family or {}).get("family"),
         "misfit_kind": misfit.get("kind"), "misfit_fires": bool(misfit.get("fires")),
+        # the self-check's worst level: its misfit over what the noise model allows
+        "misfit_ratio": (misfit["worst_misfit_rel"] / misfit["worst_allowed_rel"]
+                         if misfit.get("worst_misfit_rel") is not None
+                         and misfit.get("worst_allowed_rel") else None),
         "states": states, "true_df": true_df.tolist(), "df": df.tolist(),
         "reinforcement_yielded": yielded.tolist(),
         "df_err_pct_yielded": [float(e) for e, y in zip(err, yielded) if y],
