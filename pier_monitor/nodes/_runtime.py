@@ -7,6 +7,7 @@ lost while a PINN trains.
 
 from __future__ import annotations
 
+import faulthandler
 import queue
 import signal
 import sys
@@ -18,11 +19,16 @@ from typing import Generic, TypeVar
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 __all__ = ["QueueWorker", "node_usage", "run_node"]
 
 T = TypeVar("T")
 _STOP = object()
+#: Seconds a stop request (SIGINT, SIGTERM) waits at most for the spin loop to see it: the
+#: executor waits at most this long in one go (the signal handler runs in the main thread,
+#: between two waits).
+STOP_POLL_S = 0.1
 
 
 class QueueWorker(Generic[T]):
@@ -101,33 +107,52 @@ def node_usage(node_class: Callable[[], Node], program: str) -> str:
 
 
 def run_node(node_class: Callable[[], Node], args: list[str] | None = None) -> int:
-    """Spin one node on a SingleThreadedExecutor until Ctrl-C / SIGTERM; clean shutdown.
+    """Spin one node on a SingleThreadedExecutor until Ctrl-C / SIGTERM; orderly shutdown.
 
     Prints ``READY <fully qualified name>`` once the node is constructed (the launch-free
     scripts and the tests wait for it).  ``-h`` / ``--help`` before any ROS arguments prints
     the node's usage and returns 0 without starting it.
+
+    SIGINT and SIGTERM only ask the spin loop to stop (it looks every :data:`STOP_POLL_S`
+    seconds); then, in this thread and in this order, the executor is shut down, the node
+    destroyed (its ``destroy_node`` stops its worker: the ingest handles what is queued, the
+    identifier ends a training at its next epoch and keeps the window for the next start)
+    and only then the rclpy context shut down.  A second signal during that cleanup changes
+    nothing.  rclpy's own signal handlers are not installed: on SIGINT they shut the context
+    down at once, from a thread of rclpy's, which also triggers the executor's SIGINT guard
+    condition; the executor destroyed right after (the KeyboardInterrupt reaches this thread
+    first) left that thread reading freed memory: the process could end with SIGSEGV after
+    a clean run, and the worker could still be publishing on the shut-down context.
+
+    :mod:`faulthandler` is enabled: a native crash prints the Python stack of every thread
+    to stderr.
     """
+    faulthandler.enable()
     user_args = list(args or [])[1:]
     if "--ros-args" in user_args:
         user_args = user_args[:user_args.index("--ros-args")]
     if {"-h", "--help"} & set(user_args):
         print(node_usage(node_class, (args or ["node"])[0]))
         return 0
-    rclpy.init(args=args)
+    stop = threading.Event()
+
+    def request_stop(signum: int, frame: object) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, request_stop)
+    signal.signal(signal.SIGTERM, request_stop)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     executor = SingleThreadedExecutor()
-    signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
     try:
         node = node_class()
         executor.add_node(node)
         print(f"READY {node.get_fully_qualified_name()}", flush=True)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
+        while not stop.is_set() and executor.context.ok():
+            executor.spin_once(timeout_sec=STOP_POLL_S)
+    except ExternalShutdownException:  # the context was shut down by someone else
         pass
     finally:
-        # a second Ctrl-C (terminal and start_graph.py both signal) must not cut the cleanup
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
         executor.shutdown()
         if node is not None:
             node.destroy_node()

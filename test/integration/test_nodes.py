@@ -182,6 +182,30 @@ def test_identifier_killed_mid_training_resumes_from_the_window_on_disk(
     assert interrupt(ident) == 0
 
 
+def test_identifier_interrupted_mid_training_keeps_the_window_and_its_context_to_the_end(
+        offline, listener, spawn_python, tmp_path):
+    # Ctrl-C mid-training: the training ends at its next epoch, the window stays pending for
+    # the next start, and the rclpy context is shut down only after the worker stopped (the
+    # worker's last log line reaches /rosout; were the context shut down by the signal, as
+    # rclpy's own handler does, the log would say "publisher's context is invalid")
+    from pier_monitor.store import ResultsStore
+
+    event_id = offline.events[0].window.event_id
+    windows = tmp_path / "windows"
+    windows.mkdir()
+    shutil.copy(offline.events[0].window_file, windows / f"{event_id}.npz")
+    long_run = params_file(tmp_path / "long.yaml", tmp_path, max_epochs=5000, min_epochs=5000)
+    ident = start_node(spawn_python, "identifier_node", long_run)
+    listener.wait(lambda: len(listener.progress) >= 2, 60, "training progress")
+    assert interrupt(ident) == 0
+    log = "\n".join(ident.read_rest())
+    assert f"{event_id}: training stopped at shutdown; the window stays stored" in log, log
+    assert "context is invalid" not in log and "Traceback" not in log, log
+    store = ResultsStore(tmp_path / "results")
+    assert not store.is_done(event_id)
+    assert [w.event_id for w in store.pending(windows).windows] == [event_id]
+
+
 def test_bad_parameters_bad_messages_and_failed_training_keep_the_nodes_running(
         offline, listener, rclpy_context, spawn_python, tmp_path):
     from pier_monitor_msgs.msg import SampleBlock
