@@ -668,6 +668,10 @@ def _selfcheck_suite() -> list[dict[str, Any]]:
 
 #: Held-out seeds of the RC suite (nothing in the product was tuned on them).
 RC_HELD_OUT_SEEDS = (302, 303)
+#: Tuning seeds of the RC test-bed: the ``rc_tuning`` suite, the same cases as ``rc`` on the
+#: seeds the RC rules were chosen on (e.g. :data:`~pier_monitor.core.identify.damage.
+#: BILINEAR_MISFIT`'s rule, the Takeda posterior's settings).
+RC_TUNING_SEEDS = (300, 301)
 
 
 def bench_rc(seeds: tuple[int, ...] = RC_HELD_OUT_SEEDS,
@@ -711,7 +715,8 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
                 [s.uncertainty.ductility_factor.lo, s.uncertainty.ductility_factor.hi]
                 for s in result.sections]
     return {
-        "case": f"rc_{hyst}_{pier}_{layout}_{shaking}", "seed": seed, "split": "held_out",
+        "case": f"rc_{hyst}_{pier}_{layout}_{shaking}", "seed": seed,
+        "split": "tuning" if seed in RC_TUNING_SEEDS else "held_out",
         "hysteresis": hyst, "pier": pier, "layout": layout, "shaking": shaking,
         "method": "equation_error" if window.coverage.is_full else "field",
         "family": (result.family or {}).get("family"),
@@ -876,9 +881,10 @@ def _finite_pair(lo: float, hi: float) -> list[float] | None:
     return [float(lo), float(hi)] if np.isfinite(lo) and np.isfinite(hi) else None
 
 
-def _rc_suite() -> list[dict[str, Any]]:
-    """The ``rc`` suite: :func:`bench_rc` and its summary (last entry)."""
-    runs = bench_rc()
+def _rc_suite(seeds: tuple[int, ...] = RC_HELD_OUT_SEEDS) -> list[dict[str, Any]]:
+    """The ``rc`` suite (``rc_tuning`` with :data:`RC_TUNING_SEEDS`): :func:`bench_rc` and its
+    summary (last entry)."""
+    runs = bench_rc(seeds)
     return [*runs, summarize_rc(runs)]
 
 
@@ -893,6 +899,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "missed_damage": bench_missed_damage,
     "selfcheck": _selfcheck_suite,
     "rc": _rc_suite,
+    "rc_tuning": lambda: _rc_suite(RC_TUNING_SEEDS),
     "rc_sequence": lambda: bench_rc_sequence(),
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),

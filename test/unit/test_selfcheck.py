@@ -139,6 +139,49 @@ def test_a_model_misfit_with_a_large_energy_makes_a_section_at_least_suspicious(
     assert back.model_misfit["kind"] == "model"
 
 
+def test_a_model_misfit_of_bilinear_springs_leaves_their_df_unidentified(cases):
+    """Rule 8: the bilinear springs identified do not reproduce the measurements (a model
+    misfit), so their k1 and DF are flagged poorly identified and a DF of 2.5 does not make
+    the base damaged, only suspicious, with the reason; a Takeda family's DF still does."""
+    window, truth, _ = cases[1]
+    softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
+    sim = simulate_identified(window, softer)
+    misfit = model_misfit(dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x), truth)
+    assert misfit.kind == "model"
+    theta = np.outer(np.sin(np.linspace(0, 20, window.t.size)),
+                     np.array([2.5, 0.5, 0.5, 0.5]) * truth.yield_angles)
+    yielded = np.array([True, False, False, False])
+    sections = build_sections(window.geometry, truth, theta, yielded)
+    assert sections[0].state == "damaged" and sections[0].ductility_factor == pytest.approx(2.5)
+    own = IdentificationResult(
+        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
+        overall_state="damaged", window_start_s=0.0, window_duration_s=window.duration_s,
+        epochs=0, final_loss=float("nan"), wall_time_s=0.0, device="cpu")
+    energy = np.zeros(4)
+    evidence = [()] * 4  # no section-level evidence: rule 8 applies to the pier's springs
+    result = own.with_evidence(energy, evidence, misfit.as_dict())
+    base = result.sections[0]
+    assert base.state == "suspicious" and result.overall_state == "suspicious"
+    assert "DF not identified (the bilinear springs misfit): not called damaged on it" \
+        in base.reasons
+    assert base.evidence[-1].startswith("bilinear springs misfit: ")
+    assert f"{misfit.worst.misfit:.0%} RMS" in base.evidence[-1]
+    assert all(s.poorly_identified == ("k1", "DF") for s in result.sections)
+    assert [s.state for s in result.sections[1:]] == ["suspicious"] * 3
+    # the states decided again against a new baseline keep it, and so does result.json
+    rebased = result.with_k1_baseline(truth.k1, "design values")
+    assert rebased.sections[0].state == "suspicious"
+    back = IdentificationResult.from_dict(rebased.to_dict())
+    assert back.sections[0].poorly_identified == ("k1", "DF")
+    # no misfit, or a reinforced-concrete family chosen: the DF stands
+    clean = own.with_evidence(energy, evidence, model_misfit(window, truth).as_dict())
+    assert clean.sections[0].state == "damaged" and clean.sections[0].poorly_identified == ()
+    takeda = dataclasses.replace(own, family={"family": "takeda"}).with_evidence(
+        energy, evidence, misfit.as_dict())
+    assert takeda.sections[0].state == "damaged"
+    assert takeda.sections[0].poorly_identified == ()
+
+
 def test_without_a_misfit_only_a_large_energy_promotes(cases):
     window, truth, _ = cases[1]
     misfit = model_misfit(window, truth)
