@@ -151,15 +151,21 @@ def test_an_unreliable_result_or_another_geometry_stays_as_it_is(base_window):
     assert second_event(w2).with_cumulative_ductility(other) == second_event(w2)
 
 
+def members_elastic() -> SectionUncertainty:
+    """32 members that judged a section elastic: k1 1.2e9 N·m/rad within ±1.7 %, DF 0.8 within
+    ±10 % (0.72-0.88)."""
+    return SectionUncertainty(
+        k1=Spread(1.2e9, 1e7, 1.18e9, 1.22e9), k2=Spread.undefined(), fy=Spread.undefined(),
+        c=Spread(2e7, 1e6, 1.9e7, 2.1e7), ductility_factor=Spread(0.8, 0.05, 0.72, 0.88),
+        p_yielded=0.0, p_state=(1.0, 0.0, 0.0), members=32)
+
+
 def test_the_cumulative_state_reads_the_members_interval_scaled(base_window):
     """With an ensemble, the members judged the event alone: the state starts from the
     cumulative DF, and their DF interval is scaled to it: the straddle rule reads it, and
     the result reports it with the cumulative DF."""
     w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
-    u = SectionUncertainty(
-        k1=Spread(1.2e9, 1e7, 1.18e9, 1.22e9), k2=Spread.undefined(), fy=Spread.undefined(),
-        c=Spread(2e7, 1e6, 1.9e7, 2.1e7), ductility_factor=Spread(0.8, 0.05, 0.72, 0.88),
-        p_yielded=0.0, p_state=(1.0, 0.0, 0.0), members=32)
+    u = members_elastic()
     own = second_event(w2)
     # section 3: elastic now, but the virgin section's k1 is 2e9: DF 0.4 -> within the class
     s3 = replace(own.sections[2], uncertainty=u, ductility_factor=0.8)
@@ -194,10 +200,7 @@ def test_the_cumulative_df_interval_carries_the_reference_rotation_uncertainty(b
     """The cumulative DF is this event's peak over the baseline's yield rotation: its interval
     holds the baseline's uncertainty of that rotation as well as this event's members'."""
     w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
-    u = SectionUncertainty(
-        k1=Spread(1.2e9, 1e7, 1.18e9, 1.22e9), k2=Spread.undefined(), fy=Spread.undefined(),
-        c=Spread(2e7, 1e6, 1.9e7, 2.1e7), ductility_factor=Spread(0.8, 0.05, 0.72, 0.88),
-        p_yielded=0.0, p_state=(1.0, 0.0, 0.0), members=32)
+    u = members_elastic()
     first = first_event(w1)
     # the baseline's base section yielded (θy 4e-3 rad, DF 1.5) with a DF interval 10 % below
     # and 20 % above its mean: a yield rotation that may be larger or smaller
