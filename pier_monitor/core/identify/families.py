@@ -764,17 +764,32 @@ def _section_draws(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
     df = np.full(n_draws, np.nan)
     yielded = np.zeros(n_draws, dtype=bool)
     for j in range(n_draws):
-        peak = peaks[j]
-        try:
-            tp = TakedaParameters(*prob.tak_array(xs[j]))
-            sk = takeda_skeleton(tp)
-            ratio = peak / idealised_yield(sk, peak, yield_peak_fraction("takeda"))
-        except (InputDataError, ValueError, ZeroDivisionError):
-            continue  # a draw the spring does not admit: dropped
-        yielded[j] = bool(test and peak > sk.theta_first_yield)
-        df[j] = ratio if yielded[j] else min(ratio, 1.0)
-        params[j] = (takeda_unloading_stiffness(tp, peak), tp.kp, tp.my, cs[j])
+        member = takeda_member(prob.tak_array(xs[j]), peaks[j], cs[j], test)
+        if member is not None:  # else a draw the spring does not admit: dropped
+            params[j], df[j], yielded[j] = member
     return params, df, yielded
+
+
+def takeda_member(spring: np.ndarray, peak: float, c: float, yield_test: bool
+                  ) -> tuple[np.ndarray, float, bool] | None:
+    """One draw of a Takeda section's posterior as a member: its parameters ``spring``
+    (:class:`~pier_monitor.core.model.springs.TakedaParameters`' fields in order), its peak
+    rotation (rad) and damping ``c`` (N·m·s/rad) pushed through its skeleton.
+
+    Returns ``([k_small_after, kp, My, c], DF, yielded)``: the small-amplitude stiffness
+    after the event, the DF on the idealised yield rotation (the Takeda floor,
+    :func:`~pier_monitor.core.model.springs.yield_peak_fraction`), yielded where the fit's
+    ``yield_test`` said so and the draw passes its first yield within the window (otherwise
+    its DF is at most 1); None for parameters the spring does not admit."""
+    try:
+        tp = TakedaParameters(*spring)
+        sk = takeda_skeleton(tp)
+        ratio = peak / idealised_yield(sk, max(peak, 1e-300), yield_peak_fraction("takeda"))
+    except (InputDataError, ValueError, ZeroDivisionError):
+        return None
+    yielded = bool(yield_test and peak > sk.theta_first_yield)
+    return (np.array([takeda_unloading_stiffness(tp, peak), tp.kp, tp.my, c]),
+            ratio if yielded else min(ratio, 1.0), yielded)
 
 
 def takeda_draws(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,

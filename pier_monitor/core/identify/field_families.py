@@ -44,7 +44,7 @@ from pier_monitor.core.identify.ensemble import EnsembleDraws
 from pier_monitor.core.identify.equation_error import SpringFit
 from pier_monitor.core.identify.families import (
     N_PARAMS, FamilyChoice, FamilyFit, SectionFamilies, _PRIOR_SD, _TAK_HI, _TAK_LO,
-    fit_section_families)
+    fit_section_families, takeda_member)
 from pier_monitor.core.identify.field import (FieldFit, FieldSettings, _FieldProblem,
                                               _smooth_derivative)
 from pier_monitor.core.ingest.window import MeasuredWindow
@@ -593,7 +593,6 @@ def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2:
     z = (z @ (v / np.sqrt(np.maximum(w, 1e-300))).T)
     z[0] = 0.0
     zs = np.clip(z_hat + z, lo, hi)
-    floor = yield_peak_fraction("takeda")
     params = np.full((n_draws, n, 4), np.nan)
     df = np.full((n_draws, n), np.nan)
     drawn_yielded = np.zeros((n_draws, n), dtype=bool)
@@ -604,14 +603,9 @@ def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2:
             continue
         peak = np.abs(theta).max(axis=0)
         for i in range(n):
-            try:
-                tp = tf.params(q, i)
-                sk = takeda_skeleton(tp)
-                ratio = peak[i] / idealised_yield(sk, max(peak[i], 1e-300), floor)
-            except (InputDataError, ValueError, ZeroDivisionError):
-                continue  # a draw the spring does not admit: dropped
-            drawn_yielded[m, i] = bool(yielded[i] and peak[i] > sk.theta_first_yield)
-            df[m, i] = ratio if drawn_yielded[m, i] else min(ratio, 1.0)
             c = max(np.exp(q[i, _NT - 1]), tf.k_ref[i] * pb.dt / 20.0)
-            params[m, i] = (takeda_unloading_stiffness(tp, peak[i]), tp.kp, tp.my, c)
+            member = takeda_member(_tak_array(q[i, :7], tf.k_ref[i], tf.f_ref[i]),
+                                   float(peak[i]), c, bool(yielded[i]))
+            if member is not None:  # else a draw the spring does not admit: dropped
+                params[m, i], df[m, i], drawn_yielded[m, i] = member
     return EnsembleDraws(params=params, ductility=df, yielded=drawn_yielded)
