@@ -6,6 +6,9 @@
 The subscription is raw (reliable, transient local: the latest diagnosis arrives even when
 it was published before this script started); each message is decoded with ``rosbags``
 from the message definitions of ``msg_defs/`` and printed as ``DAMAGE_STATE {json}``.
+Ctrl-C / SIGTERM end it in order (rclpy without its own signal handlers:
+:func:`pier_monitor.nodes._runtime.ros_runtime`); the exit status is 1 when ``--count``
+messages were asked for and fewer came, 0 otherwise.
 """
 
 from __future__ import annotations
@@ -19,9 +22,9 @@ from typing import Any
 
 import rclpy
 from pier_monitor_msgs.msg import PierDamageState
-from rclpy.executors import SingleThreadedExecutor
 
 from pier_monitor.bags import get_typestore
+from pier_monitor.nodes._runtime import ros_runtime
 from pier_monitor.nodes.qos import DAMAGE_STATE_QOS
 
 TYPE = "pier_monitor_msgs/msg/PierDamageState"
@@ -46,9 +49,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timeout", type=float, default=0.0, help="s; 0: none")
     args, ros_args = parser.parse_known_args(argv)
     typestore = get_typestore()
-    rclpy.init(args=[sys.argv[0], *ros_args])
-    node = rclpy.create_node("echo_damage_state")
-    executor = SingleThreadedExecutor()
     received = 0
 
     def on_raw(raw: bytes) -> None:
@@ -57,18 +57,13 @@ def main(argv: list[str] | None = None) -> int:
         print("DAMAGE_STATE " + json.dumps(as_plain(msg)), flush=True)
         received += 1
 
-    node.create_subscription(PierDamageState, args.topic, on_raw, DAMAGE_STATE_QOS, raw=True)
-    executor.add_node(node)
-    deadline = time.monotonic() + args.timeout if args.timeout > 0 else math.inf
-    try:
-        while (args.count <= 0 or received < args.count) and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.1)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+    with ros_runtime([sys.argv[0], *ros_args]) as runtime:
+        node = runtime.add_node(rclpy.create_node("echo_damage_state"))
+        node.create_subscription(PierDamageState, args.topic, on_raw, DAMAGE_STATE_QOS,
+                                 raw=True)
+        deadline = time.monotonic() + args.timeout if args.timeout > 0 else math.inf
+        runtime.spin(until=lambda: (0 < args.count <= received)
+                     or time.monotonic() >= deadline)
     return 0 if args.count <= 0 or received >= args.count else 1
 
 

@@ -13,12 +13,17 @@ topic is offered latched: the configuration in force at the start.  Before playi
 configuration).  At the end it waits for reliable delivery and prints one line::
 
     SENT messages=<n> samples=<n> blocks=<n> seconds=<wall>
+
+Ctrl-C / SIGTERM stop it between two messages (or waits), without that line; the exit
+status is then 128 + the signal number (130 for Ctrl-C).  rclpy runs without its own signal
+handlers (:func:`pier_monitor.nodes._runtime.ros_runtime`).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 import time
 from pathlib import Path
@@ -27,6 +32,7 @@ import rclpy
 from rclpy.duration import Duration
 
 from pier_monitor.bags import SAMPLE_BLOCK, get_typestore
+from pier_monitor.nodes._runtime import ros_runtime
 from pier_monitor.nodes.qos import LATCHED_QOS, SENSOR_QOS
 
 
@@ -50,10 +56,13 @@ def main(argv: list[str] | None = None) -> int:
     args, ros_args = parser.parse_known_args(argv)
     from rosbags.rosbag2 import Reader
 
-    rclpy.init(args=[sys.argv[0], *ros_args])
-    node = rclpy.create_node("replay_bag")
     typestore = get_typestore()
-    try:
+    with ros_runtime([sys.argv[0], *ros_args]) as runtime:
+        node = runtime.add_node(rclpy.create_node("replay_bag"))
+
+        def interrupted() -> int:  # the exit status after a stop request
+            return 128 + (runtime.signal or signal.SIGINT)
+
         with Reader(args.bag) as reader:
             pubs = {}
             for conn in reader.connections:
@@ -82,8 +91,10 @@ def main(argv: list[str] | None = None) -> int:
                     print(f"replay_bag: no subscriber on {len(missing)} topics after "
                           f"{args.wait_timeout} s, e.g. {missing[:3]}", file=sys.stderr)
                     return 2
-                time.sleep(0.05)
-            time.sleep(0.5)  # let the new readers finish matching every writer
+                if not runtime.sleep(0.05):
+                    return interrupted()
+            if not runtime.sleep(0.5):  # let the new readers finish matching every writer
+                return interrupted()
             print(f"PLAYING {len(msgs)} messages", flush=True)
             n_msgs = n_samples = n_blocks = 0
             t0_log = max(msgs[0][1], start_ns)
@@ -97,7 +108,9 @@ def main(argv: list[str] | None = None) -> int:
                 if args.rate > 0:
                     delay = t0_wall + (log_ns - t0_log) / 1e9 / args.rate - time.monotonic()
                     if delay > 0:
-                        time.sleep(delay)
+                        runtime.sleep(delay)
+                if runtime.stopped:
+                    return interrupted()
                 pubs[conn.topic].publish(bytes(raw))
                 n_msgs += 1
                 if conn.msgtype == SAMPLE_BLOCK:
@@ -107,14 +120,11 @@ def main(argv: list[str] | None = None) -> int:
             wall = time.monotonic() - t0_wall
             for pub in pubs.values():
                 pub.wait_for_all_acked(Duration(seconds=10))
+                if runtime.stopped:
+                    return interrupted()
         print(f"SENT messages={n_msgs} samples={n_samples} blocks={n_blocks} "
               f"seconds={wall:.3f}", flush=True)
         return 0
-    except KeyboardInterrupt:
-        return 130
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
 
 
 if __name__ == "__main__":

@@ -6,8 +6,9 @@
   identify_window` on a worker thread → progress, latched damage state, ``/diagnostics``;
 * :mod:`~pier_monitor.nodes.conversions` — messages ↔ core types (one function each way);
 * :mod:`~pier_monitor.nodes.qos` — the QoS of every topic;
-* ``_runtime`` (the queue worker and ``run_node``) and ``_params`` (parameter declaration),
-  shared by the nodes.
+* ``_runtime`` (the queue worker, ``run_node`` and ``ros_runtime``: rclpy without its signal
+  handlers and an ordered shutdown, also used by the launch-free scripts) and ``_params``
+  (parameter declaration), shared by the nodes.
 
 The nodes hold ROS glue only (parameters, topics, conversions, diagnostics); what happens to
 the data is the library's.

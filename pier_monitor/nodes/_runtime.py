@@ -2,7 +2,9 @@
 
 Subscription callbacks only put items on a :class:`QueueWorker`; its thread does the work
 (decoding, ingest, training), so that the executor never stalls and nothing received is
-lost while a PINN trains.
+lost while a PINN trains.  :func:`ros_runtime` (rclpy without its signal handlers, a stop
+flag set by SIGINT / SIGTERM, an ordered shutdown) is what ``run_node`` and the launch-free
+scripts spin in.
 """
 
 from __future__ import annotations
@@ -12,18 +14,21 @@ import queue
 import signal
 import sys
 import threading
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Generic, TypeVar
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor, TimeoutException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-__all__ = ["QueueWorker", "node_usage", "run_node"]
+__all__ = ["QueueWorker", "RosRuntime", "node_usage", "ros_runtime", "run_node"]
 
 T = TypeVar("T")
+N = TypeVar("N", bound=Node)
 _STOP = object()
 #: Seconds a stop request (SIGINT, SIGTERM) waits at most for the spin loop to see it: the
 #: executor waits at most this long in one go (the signal handler runs in the main thread,
@@ -106,6 +111,125 @@ def node_usage(node_class: Callable[[], Node], program: str) -> str:
             "`ros2 param describe` gives the same on a running node.")
 
 
+class RosRuntime:
+    """What :func:`ros_runtime` yields: the stop flag, one executor and the nodes on it.
+
+    Everything here is called from the thread that entered :func:`ros_runtime` (the main
+    thread: the signal handlers run there).
+    """
+
+    def __init__(self) -> None:
+        self._stop = threading.Event()
+        #: The signal that asked to stop (``signal.SIGINT`` / ``signal.SIGTERM``), or None.
+        self.signal: int | None = None
+        #: Created by :func:`ros_runtime` once rclpy is initialised.
+        self.executor: SingleThreadedExecutor
+        self._nodes: list[Node] = []
+
+    def request_stop(self, signum: int | None = None) -> None:
+        """Ask every loop of this runtime to stop (what SIGINT and SIGTERM do)."""
+        if self.signal is None:
+            self.signal = signum
+        self._stop.set()
+
+    @property
+    def stopped(self) -> bool:
+        """A stop was requested, or the rclpy context is no longer valid."""
+        return self._stop.is_set() or not self.executor.context.ok()
+
+    def add_node(self, node: N) -> N:
+        """Put ``node`` on the executor; it is destroyed at the end, after the executor."""
+        self._nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def spin(self, until: Callable[[], bool] = lambda: False) -> None:
+        """Run callbacks until a stop is requested or ``until()`` is true (checked between
+        two callbacks, and at least every :data:`STOP_POLL_S` seconds)."""
+        while not self.stopped and not until():
+            self.executor.spin_once(timeout_sec=STOP_POLL_S)
+
+    def drain(self, max_s: float = 2.0) -> int:
+        """Run, without waiting, the callbacks whose data have already arrived; return how
+        many ran.
+
+        Called after :meth:`spin` (also after a stop request): messages the middleware
+        delivered before the stop but not yet handed over are handled, not dropped.  Ends
+        when one pass over the entities finds nothing ready, or after ``max_s`` seconds (a
+        publisher that never pauses).
+        """
+        deadline = time.monotonic() + max_s
+        ran = 0
+        while self.executor.context.ok() and time.monotonic() < deadline:
+            before = ran
+            while True:  # one wait without timeout, then the callbacks it found ready
+                try:
+                    handler, _, _ = self.executor.wait_for_ready_callbacks(timeout_sec=0.0)
+                except TimeoutException:
+                    break
+                handler()
+                if handler.exception() is not None:
+                    raise handler.exception()
+                ran += 1
+            if ran == before:
+                break
+        return ran
+
+    def sleep(self, seconds: float) -> bool:
+        """Sleep ``seconds`` unless a stop is requested meanwhile (looked at every
+        :data:`STOP_POLL_S` seconds); True when the whole time was slept."""
+        deadline = time.monotonic() + seconds
+        while not self.stopped:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return True
+            time.sleep(min(left, STOP_POLL_S))
+        return False
+
+
+@contextmanager
+def ros_runtime(args: list[str] | None = None) -> Iterator[RosRuntime]:
+    """rclpy for a process's main thread: own SIGINT / SIGTERM handling, ordered shutdown.
+
+    Enables :mod:`faulthandler` (a native crash prints the Python stack of every thread to
+    stderr), makes SIGINT and SIGTERM only set the runtime's stop flag (the loops of
+    :class:`RosRuntime` look at it every :data:`STOP_POLL_S` seconds; no KeyboardInterrupt is
+    raised) and initialises rclpy with ``args`` but without its own signal handlers.  On
+    leaving the block, in this thread and in this order: the executor is shut down, the
+    nodes added with :meth:`RosRuntime.add_node` are destroyed (last added first), and only
+    then the rclpy context is shut down.  A signal during that cleanup changes nothing; the
+    handlers stay installed until the process exits, so that work done after the block
+    (closing a file) is not interrupted either.
+
+    rclpy's own handlers are not used: on SIGINT they shut the context down at once, from a
+    thread of rclpy's, which also triggers the executor's SIGINT guard condition; the
+    executor destroyed right after (the KeyboardInterrupt reaches the main thread first)
+    left that thread reading freed memory: the process could end with SIGSEGV after a clean
+    run, and a node's worker could still be publishing on the shut-down context.
+    """
+    faulthandler.enable()
+    runtime = RosRuntime()
+
+    def request_stop(signum: int, frame: object) -> None:
+        runtime.request_stop(signum)
+
+    signal.signal(signal.SIGINT, request_stop)
+    signal.signal(signal.SIGTERM, request_stop)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    executor = None
+    try:
+        executor = runtime.executor = SingleThreadedExecutor()
+        yield runtime
+    except ExternalShutdownException:  # the context was shut down by someone else
+        pass
+    finally:
+        if executor is not None:
+            executor.shutdown()
+        for node in reversed(runtime._nodes):
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
 def run_node(node_class: Callable[[], Node], args: list[str] | None = None) -> int:
     """Spin one node on a SingleThreadedExecutor until Ctrl-C / SIGTERM; orderly shutdown.
 
@@ -113,48 +237,22 @@ def run_node(node_class: Callable[[], Node], args: list[str] | None = None) -> i
     scripts and the tests wait for it).  ``-h`` / ``--help`` before any ROS arguments prints
     the node's usage and returns 0 without starting it.
 
-    SIGINT and SIGTERM only ask the spin loop to stop (it looks every :data:`STOP_POLL_S`
-    seconds); then, in this thread and in this order, the executor is shut down, the node
-    destroyed (its ``destroy_node`` stops its worker: the ingest handles what is queued, the
-    identifier ends a training at its next epoch and keeps the window for the next start)
-    and only then the rclpy context shut down.  A second signal during that cleanup changes
-    nothing.  rclpy's own signal handlers are not installed: on SIGINT they shut the context
-    down at once, from a thread of rclpy's, which also triggers the executor's SIGINT guard
-    condition; the executor destroyed right after (the KeyboardInterrupt reaches this thread
-    first) left that thread reading freed memory: the process could end with SIGSEGV after
-    a clean run, and the worker could still be publishing on the shut-down context.
-
-    :mod:`faulthandler` is enabled: a native crash prints the Python stack of every thread
-    to stderr.
+    Runs in :func:`ros_runtime`: SIGINT and SIGTERM only ask the spin loop to stop (it looks
+    every :data:`STOP_POLL_S` seconds); then, in this thread and in this order, the executor
+    is shut down, the node destroyed (its ``destroy_node`` stops its worker: the ingest
+    handles what is queued, the identifier ends a training at its next epoch and keeps the
+    window for the next start) and only then the rclpy context shut down.  A second signal
+    during that cleanup changes nothing.  rclpy's own signal handlers are not installed (see
+    :func:`ros_runtime` for the crash they caused).  :mod:`faulthandler` is enabled.
     """
-    faulthandler.enable()
     user_args = list(args or [])[1:]
     if "--ros-args" in user_args:
         user_args = user_args[:user_args.index("--ros-args")]
     if {"-h", "--help"} & set(user_args):
         print(node_usage(node_class, (args or ["node"])[0]))
         return 0
-    stop = threading.Event()
-
-    def request_stop(signum: int, frame: object) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGINT, request_stop)
-    signal.signal(signal.SIGTERM, request_stop)
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    node = None
-    executor = SingleThreadedExecutor()
-    try:
-        node = node_class()
-        executor.add_node(node)
+    with ros_runtime(args) as runtime:
+        node = runtime.add_node(node_class())
         print(f"READY {node.get_fully_qualified_name()}", flush=True)
-        while not stop.is_set() and executor.context.ok():
-            executor.spin_once(timeout_sec=STOP_POLL_S)
-    except ExternalShutdownException:  # the context was shut down by someone else
-        pass
-    finally:
-        executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        runtime.spin()
     return 0

@@ -492,6 +492,57 @@ def test_record_topics_writes_an_mcap_that_decodes_with_mcap_ros2(
     node.destroy_publisher(block_pub)
 
 
+@pytest.mark.timeout(60)
+def test_record_topics_stopped_by_sigint_closes_a_bag_with_every_message_received(
+        listener, spawn_python, tmp_path, fields_equal):
+    """Ctrl-C (no --duration): exit status 0, and the mcap holds each message delivered
+    before the signal, in order."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    from pier_monitor_msgs.msg import SampleBlock
+    from rclpy.duration import Duration
+
+    from pier_monitor.nodes.qos import SENSOR_QOS
+
+    node = listener.node
+    topic = f"{NS}/sensors/level1/acc_se"
+    pub = node.create_publisher(SampleBlock, topic, SENSOR_QOS)
+    out = tmp_path / "interrupted.mcap"
+    rec = spawn_python(RUN_SCRIPT, str(REPO_ROOT / "launch_free_scripts/record_topics.py"),
+                       str(out), "sensors/level1/acc_se", "--ros-args", "-r", f"__ns:={NS}")
+    assert rec.wait_for_line("RECORDING", 15).split()[1] == topic
+    listener.wait(lambda: pub.get_subscription_count() > 0, 10, "the recorder")
+    time.sleep(0.3)
+    sent = []
+    for k in range(40):
+        msg = SampleBlock(sensor_id="l1_acc_se", kind=0, unit="m/s^2", sample_rate_hz=200.0,
+                          first_sample_index=50 * k, axes=["x", "y", "z"],
+                          data=[0.01 * k, -0.5, 9.81] * 50)
+        msg.header.stamp.sec = 1_700_000_000 + k // 4
+        msg.header.stamp.nanosec = (k % 4) * 250_000_000
+        msg.header.frame_id = "l1_acc_se"
+        pub.publish(msg)
+        sent.append(msg)
+    # every message is in the recorder's reader before the signal (reliable: acknowledged)
+    assert pub.wait_for_all_acked(Duration(seconds=10))
+    assert interrupt(rec, timeout_s=20) == 0
+    lines = rec.read_rest()
+    assert "RECORDED 40 messages" in lines
+    assert not any("Traceback" in ln or "Fatal Python error" in ln for ln in lines), lines
+    rec.stop()
+
+    with out.open("rb") as f:  # finished: summary and footer written, everything decodes
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics.message_count == 40
+        got = [(channel.topic, ros_msg)
+               for _, channel, _, ros_msg in reader.iter_decoded_messages()]
+    assert [t for t, _ in got] == [topic] * 40
+    for want, (_, msg) in zip(sent, got, strict=True):
+        fields_equal(want, msg)
+    node.destroy_publisher(pub)
+
+
 def test_field_network_bag_live_equals_offline(listener, spawn_python, tmp_path):
     """Accelerometers at every level and a 10 Hz GNSS receiver at the top, no wire: the live
     graph reconstructs the springs exactly as ``identify`` does for the same bag."""
