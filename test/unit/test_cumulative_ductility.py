@@ -222,9 +222,10 @@ def test_the_cumulative_df_interval_carries_the_reference_rotation_uncertainty(b
     # now the interval straddles 1.5 (damaged either way: a straddle never demotes)
     assert cum.sections[0].state == "damaged"
     # a baseline that did not yield: the reference is this event's fy over the baseline's
-    # k1, so its k1 spread (5 % either side) widens the interval of a section yielded now
+    # k1, so its k1 spread (2 % below, 5 % above) widens the interval of a section yielded
+    # now, a k1 low with a DF low
     first = first_event(w1)
-    k1_u = replace(u, k1=Spread(2e9, 5e7, 1.9e9, 2.1e9))
+    k1_u = replace(u, k1=Spread(2e9, 5e7, 1.96e9, 2.1e9))
     first = replace(first, sections=(first.sections[0],
                                      replace(first.sections[1], uncertainty=k1_u),
                                      *first.sections[2:]))
@@ -235,12 +236,63 @@ def test_the_cumulative_df_interval_carries_the_reference_rotation_uncertainty(b
     df = 5e-3 / (6e6 / 2e9)
     shown = cum.sections[1].uncertainty.ductility_factor
     assert cum.sections[1].ductility_factor == pytest.approx(df)
-    assert (shown.lo, shown.hi) == (pytest.approx(df * (1 - math.hypot(0.05, 0.05))),
+    assert (shown.lo, shown.hi) == (pytest.approx(df * (1 - math.hypot(0.05, 0.02))),
                                     pytest.approx(df * (1 + math.hypot(0.05, 0.05))))
+    assert shown.std == pytest.approx(math.hypot(0.05 * df / 1.25, df * 5e7 / 2e9))
+    # a Takeda baseline's spread is of its stiffness after the event, not of its k1: no
+    # spread of the reference, the members' interval scaled alone
+    takeda = replace(first.sections[1], family="takeda", k_small_after=1.5e9)
+    cum = own.with_cumulative_ductility(replace(first, sections=(
+        first.sections[0], takeda, *first.sections[2:])))
+    shown = cum.sections[1].uncertainty.ductility_factor
+    assert (shown.lo, shown.hi) == (pytest.approx(df * 0.95), pytest.approx(df * 1.05))
     # without the baseline's spread the interval is the members' scaled alone
     cum = own.with_cumulative_ductility(first_event(w1))
     shown = cum.sections[1].uncertainty.ductility_factor
     assert (shown.lo, shown.hi) == (pytest.approx(df * 0.95), pytest.approx(df * 1.05))
+    assert cum.sections[1].poorly_identified == ()
+
+
+def test_a_widened_cumulative_interval_is_flagged_and_never_negative(base_window):
+    """The reference's uncertainty can widen the cumulative DF interval past its limit (±30 %):
+    the DF is then flagged poorly identified, and not called damaged on it; relative bounds
+    that add up past 100 % stop the interval at zero."""
+    w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
+    u = members_elastic()
+    first = first_event(w1)
+    # baseline base section: DF 1.5 with an interval 60 % below and 70 % above its mean
+    base_u = replace(u, ductility_factor=Spread(1.5, 0.5, 0.6, 2.55), p_yielded=1.0,
+                     p_state=(0.0, 0.0, 1.0))
+    first = replace(first, sections=(replace(first.sections[0], uncertainty=base_u),
+                                     *first.sections[1:]))
+    own = second_event(w2)
+    # this event: DF 0.8 alone, its members 10 % either side (peak 6.4e-3 on 8e-3 rad),
+    # then 90 % below: cumulative 1.6, interval combined to 0 below
+    s1 = replace(own.sections[0], ductility_factor=0.8, max_angle_rad=6.4e-3,
+                 yield_angle_rad=8e-3, state="intact", uncertainty=replace(
+                     u, ductility_factor=Spread(0.8, 0.3, 0.08, 0.88)))
+    cum = replace(own, sections=(s1, *own.sections[1:])).with_cumulative_ductility(first)
+    sec = cum.sections[0]
+    shown = sec.uncertainty.ductility_factor
+    assert sec.ductility_factor == pytest.approx(1.6)
+    assert shown.lo == 0.0 and shown.hi == pytest.approx(1.6 * (1 + math.hypot(0.1, 0.7)))
+    assert "DF" in sec.poorly_identified
+    assert sec.state == "suspicious"
+    assert sec.reasons[0].startswith("DF poorly identified (90 % interval [0.00, ")
+
+
+def test_a_baseline_whose_springs_misfit_is_no_reference(base_window):
+    """Rule 8: where the self-check said the baseline's bilinear springs do not follow the
+    pier, its yield rotation and k1 are not identified, so a later event keeps its own DF."""
+    from pier_monitor.core.identify.damage import BILINEAR_MISFIT
+
+    w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
+    first = first_event(w1)
+    misfit = f"{BILINEAR_MISFIT}: the bilinear springs identified do not reproduce ..."
+    first = replace(first, sections=tuple(replace(s, evidence=(misfit,))
+                                          for s in first.sections))
+    own = second_event(w2)
+    assert own.with_cumulative_ductility(first).sections == own.sections
 
 
 def test_the_k1_change_between_takeda_events_is_of_the_small_amplitude_stiffness(base_window):

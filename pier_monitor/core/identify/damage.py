@@ -241,13 +241,14 @@ def _reference_spread(baseline: SectionResult) -> Spread | None:
     Where the baseline yielded the reference is its yield rotation ``θ*`` and its DF interval
     is that of ``θp / θ*``: a DF low in it is a ``θ*`` high in it, so a cumulative DF low too.
     Otherwise the reference is ``fy / k1_baseline`` and the cumulative DF goes with the
-    baseline's ``k1``.
+    baseline's ``k1`` (its spread where the uncertainty is of ``k1`` itself,
+    :meth:`SectionResult.k1_spread_of`: a Takeda section's is of ``k_small_after``).
     """
     u = baseline.uncertainty
     if u is None:
         return None
-    s = u.ductility_factor if baseline.yielded else u.k1
-    return s if s.defined else None
+    s = u.ductility_factor if baseline.yielded else baseline.k1_spread_of(baseline.k1)
+    return s if s is not None and s.defined else None
 
 
 def _cumulative_df_spread(own: Spread, event_df: float, df: float,
@@ -265,7 +266,8 @@ def _cumulative_df_spread(own: Spread, event_df: float, df: float,
     b_lo, b_hi, b_s = reference.relative_bounds()
     a_lo, a_hi = max(df - s.lo, 0.0) / df, max(s.hi - df, 0.0) / df
     std = s.std if math.isfinite(s.std) else 0.0
-    return replace(s, lo=df * (1.0 - math.hypot(a_lo, b_lo)),
+    # a DF is not negative: relative bounds below 100 % combine past zero
+    return replace(s, lo=df * max(1.0 - math.hypot(a_lo, b_lo), 0.0),
                    hi=df * (1.0 + math.hypot(a_hi, b_hi)), std=math.hypot(std, df * b_s))
 
 
@@ -299,7 +301,8 @@ def decide_state(ductility_factor: float, yielded: bool,
         ensemble's members judged the event's own DF, so their most probable state does not
         apply: the state starts from the cumulative DF's class.  The uncertainty's DF interval
         is then the cumulative one (the members' interval scaled by the cumulative DF over the
-        event's own, :meth:`SectionResult.cumulative`), which the straddle rule reads.
+        event's own and widened by the reference's uncertainty,
+        :meth:`SectionResult.cumulative`), which the straddle rule reads.
 
     Returns
     -------
@@ -380,7 +383,8 @@ class SectionResult:
     ``poorly_identified`` names the quantities (``k1``, ``k2``, ``fy``, ``c``, ``DF``) whose
     90 % interval is wider than :data:`IDENTIFIABILITY_LIMITS` allows
     (:func:`poorly_identified`): shown with their interval, never a basis of a state.
-    Empty without an ensemble (no interval: nothing flagged).
+    Empty without an ensemble (no interval: nothing flagged), except for ``k1`` and ``DF``
+    under rule 8 of the module (a model misfit of bilinear springs, with or without one).
 
     ``ductility_factor`` and ``yield_angle_rad`` are what the state is decided on.  An event
     identified alone assumes springs undamaged at the window start; with an earlier event
@@ -508,16 +512,19 @@ class SectionResult:
         moment reached now on the virgin section's elastic stiffness).  The section counts as
         yielded if it yielded now or in the baseline; the DF is ``peak_so_far`` over the
         reference, at most 1 where it yielded in neither (as for a single event).  The state
-        is decided again on that DF.  A section without a DF (NaN), or a reference that is
-        no positive finite rotation, stays as it is.
+        is decided again on that DF.  A section without a DF (NaN), a reference that is no
+        positive finite rotation, or a baseline section whose ``k1`` and DF rule 8 says are
+        not identified (:data:`BILINEAR_MISFIT`), stays as it is.
 
         The DF interval goes with the DF shown: this event's members' interval, scaled by the
         cumulative DF over the event's own, and, where the section yielded, widened by the
         reference rotation's own uncertainty, which the baseline identified
-        (:func:`_cumulative_df_spread`).
+        (:func:`_cumulative_df_spread`); where that makes it wider than its limit the DF is
+        flagged poorly identified.
         """
-        if not math.isfinite(self.ductility_factor):
-            return self
+        if not math.isfinite(self.ductility_factor) or any(
+                e.startswith(BILINEAR_MISFIT) for e in baseline.evidence):
+            return self  # rule 8: the baseline's yield rotation and k1 are not identified
         if baseline.yielded and math.isfinite(baseline.yield_angle_rad):
             theta_y = float(baseline.yield_angle_rad)
             what = f"the virgin yield rotation of {baseline_label}"
@@ -537,8 +544,12 @@ class SectionResult:
             u = replace(u, ductility_factor=_cumulative_df_spread(
                 u.ductility_factor, float(self.ductility_factor), df,
                 _reference_spread(baseline) if yielded else None))
+        flags = self.poorly_identified
+        if u is not None and _too_wide(u.ductility_factor, "DF") and "DF" not in flags:
+            # the reference's uncertainty can widen the interval past the DF's limit
+            flags = tuple(k for k in IDENTIFIABILITY_LIMITS if k in flags or k == "DF")
         out = replace(self, ductility_factor=df, yield_angle_rad=theta_y, yielded=yielded,
-                      uncertainty=u,
+                      uncertainty=u, poorly_identified=flags,
                       event_ductility_factor=float(own.ductility_factor),
                       event_yield_angle_rad=float(own.yield_angle_rad),
                       ductility_reference=(f"cumulative: peak rotation so far {peak:.4g} rad "

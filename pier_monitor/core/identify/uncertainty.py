@@ -412,7 +412,8 @@ def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
     b_lo, b_hi, b_s = (baseline_spread.relative_bounds() if baseline_spread is not None
                        else (0.0, 0.0, 0.0))
     r = k1 / baseline_k1
-    return K1ChangeInterval(lo_pct=100.0 * (r * (1.0 - math.hypot(a_lo, b_hi)) - 1.0),
+    # a stiffness is not negative: the change is at least -100 %
+    return K1ChangeInterval(lo_pct=100.0 * (r * max(1.0 - math.hypot(a_lo, b_hi), 0.0) - 1.0),
                             hi_pct=100.0 * (r * (1.0 + math.hypot(a_hi, b_lo)) - 1.0),
                             scatter_pct=100.0 * r * math.hypot(a_s, b_s))
 
