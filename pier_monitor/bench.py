@@ -712,7 +712,7 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
     err = 100.0 * np.abs(df / true_df - 1.0)
     misfit = result.model_misfit or {}
     interval = [None if s.uncertainty is None else
-                [s.uncertainty.ductility_factor.lo, s.uncertainty.ductility_factor.hi]
+                _finite_pair(s.uncertainty.ductility_factor.lo, s.uncertainty.ductility_factor.hi)
                 for s in result.sections]
     return {
         "case": f"rc_{hyst}_{pier}_{layout}_{shaking}", "seed": seed,
@@ -750,8 +750,9 @@ def _held_of(held: list[bool | None]) -> dict[str, int]:
 
 def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
     """Per hysteresis and layout: runs, family chosen, misfit fired, DF error on the
-    yielded sections (mean, max), their DF interval coverage, sections intact at a true DF >= 1.5, damaged where the
-    reinforcement stayed elastic, unreliable runs, the slowest event."""
+    yielded sections (mean, max), their DF interval coverage, sections intact at a true
+    DF >= 1.5, damaged where the reinforcement stayed elastic, unreliable runs, the slowest
+    event."""
     out: dict[str, Any] = {"case": "rc_summary", "groups": {}, "wall_s": 0.0, "device": "cpu"}
     for hyst in sorted({r["hysteresis"] for r in runs}):
         for layout in sorted({r["layout"] for r in runs}):

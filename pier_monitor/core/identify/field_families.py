@@ -210,14 +210,19 @@ class _TakedaField:
     def params(self, q: np.ndarray, i: int) -> TakedaParameters:
         return TakedaParameters(*_tak_array(q[i, :7], self.k_ref[i], self.f_ref[i]))
 
+    def damping(self, q: np.ndarray, i: int) -> float:
+        """Spring ``i``'s damper, N·m·s/rad: ``exp`` of its last parameter, at least
+        ``k_ref Δt / 20`` (the integration needs a damper)."""
+        return float(max(np.exp(q[i, _NT - 1]), self.k_ref[i] * self.pb.dt / 20.0))
+
     def angles(self, q: np.ndarray, g: np.ndarray, springs=None,
                theta: np.ndarray | None = None, moment: np.ndarray | None = None):
         pb = self.pb
         theta = np.zeros((pb.t_len, pb.n)) if theta is None else theta.copy()
         moment = np.zeros((pb.t_len, pb.n)) if moment is None else moment.copy()
         for i in range(pb.n) if springs is None else springs:
-            c = max(np.exp(q[i, _NT - 1]), self.k_ref[i] * pb.dt / 20.0)
-            theta[:, i], moment[:, i] = damped_takeda(g[:, i], pb.dt, self.params(q, i), c)
+            theta[:, i], moment[:, i] = damped_takeda(g[:, i], pb.dt, self.params(q, i),
+                                                      self.damping(q, i))
         return theta, moment
 
     def residual(self, q: np.ndarray, eps: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -503,7 +508,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     sections = []
     for i in range(n):
         tp = tf.params(q, i)
-        c_t = float(max(np.exp(q[i, _NT - 1]), tf.k_ref[i] * pb.dt / 20.0))
+        c_t = tf.damping(q, i)
         k1, k2, fy, cb = (float(fit.params.k1[i]), float(fit.params.k2[i]),
                           float(fit.params.fy[i]), float(fit.params.c[i]))
         fits = {
@@ -555,8 +560,10 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
 
 def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2: float,
                      yielded: np.ndarray, n_draws: int, seed: int, lo: np.ndarray,
-                     hi: np.ndarray) -> EnsembleDraws:
-    """Draws of the Takeda reconstruction's posterior, as an ensemble's members.
+                     hi: np.ndarray) -> EnsembleDraws | None:
+    """Draws of the Takeda reconstruction's posterior, as an ensemble's members (None where
+    the fit's Jacobian is not finite or its precision is singular to working precision:
+    then there is no interval, and the outputs say so).
 
     A Laplace (Gauss–Newton) posterior of every spring's parameters and the gains together
     at the fit ``z_hat``: precision ``J_dᵀ J_d / s² + J_pᵀ J_p``, ``J`` the fit's Jacobian
@@ -573,12 +580,14 @@ def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2:
 
     Returns
     -------
-    EnsembleDraws
+    EnsembleDraws or None
         ``params`` (M, N, 4) ``[k_small_after, kp, My, c]`` (N·m/rad, N·m/rad, N·m,
         N·m·s/rad), as :func:`~pier_monitor.core.identify.families.takeda_draws`.
     """
     pb, n = tf.pb, tf.pb.n
     j = np.asarray(jac.toarray() if hasattr(jac, "toarray") else jac, dtype=float)
+    if not np.all(np.isfinite(j)):
+        return None
     j_d, j_p = j[:tf.n_data], j[tf.n_data:]
     var = max(chi2 / max(tf.n_eff - N_PARAMS["takeda"] * n, 1.0), 1.0)
     # the equation-error posterior's weak prior where the fit has none: it keeps what the
@@ -589,8 +598,10 @@ def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2:
         weak[i * _NT:i * _NT + 7] = np.where(np.isfinite(tf.prior_sd[:7]), 0.0,
                                              _PRIOR_SD ** -2.0)
     w, v = np.linalg.eigh(j_d.T @ j_d / var + j_p.T @ j_p + np.diag(weak))
+    if not w[0] > 1e-12 * w[-1]:  # a direction the round-off decides: no posterior to draw
+        return None
     z = np.random.default_rng([seed, 18, 2]).standard_normal((n_draws, z_hat.size))
-    z = (z @ (v / np.sqrt(np.maximum(w, 1e-300))).T)
+    z = z @ (v / np.sqrt(w)).T
     z[0] = 0.0
     zs = np.clip(z_hat + z, lo, hi)
     params = np.full((n_draws, n, 4), np.nan)
@@ -603,9 +614,8 @@ def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2:
             continue
         peak = np.abs(theta).max(axis=0)
         for i in range(n):
-            c = max(np.exp(q[i, _NT - 1]), tf.k_ref[i] * pb.dt / 20.0)
             member = takeda_member(_tak_array(q[i, :7], tf.k_ref[i], tf.f_ref[i]),
-                                   float(peak[i]), c, bool(yielded[i]))
+                                   float(peak[i]), tf.damping(q, i), bool(yielded[i]))
             if member is not None:  # else a draw the spring does not admit: dropped
                 params[m, i], df[m, i], drawn_yielded[m, i] = member
     return EnsembleDraws(params=params, ductility=df, yielded=drawn_yielded)
