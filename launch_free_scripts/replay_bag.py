@@ -32,7 +32,7 @@ import rclpy
 from rclpy.duration import Duration
 
 from pier_monitor.bags import SAMPLE_BLOCK, get_typestore
-from pier_monitor.nodes._runtime import ros_runtime
+from pier_monitor.nodes._runtime import STOP_POLL_S, ros_runtime
 from pier_monitor.nodes.qos import LATCHED_QOS, SENSOR_QOS
 
 
@@ -118,8 +118,15 @@ def main(argv: list[str] | None = None) -> int:
                     n_samples += len(block.data) // max(1, len(block.axes))
                     n_blocks += 1
             wall = time.monotonic() - t0_wall
-            for pub in pubs.values():
-                pub.wait_for_all_acked(Duration(seconds=10))
+            for topic, pub in pubs.items():  # up to 10 s each, a stop looked at in between
+                deadline = time.monotonic() + 10.0
+                while not pub.wait_for_all_acked(Duration(seconds=STOP_POLL_S)):
+                    if runtime.stopped:
+                        return interrupted()
+                    if time.monotonic() >= deadline:
+                        print(f"replay_bag: {topic}: not every subscriber acknowledged the "
+                              "messages within 10 s", file=sys.stderr, flush=True)
+                        break
                 if runtime.stopped:
                     return interrupted()
         print(f"SENT messages={n_msgs} samples={n_samples} blocks={n_blocks} "

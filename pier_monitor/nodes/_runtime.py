@@ -145,9 +145,13 @@ class RosRuntime:
 
     def spin(self, until: Callable[[], bool] = lambda: False) -> None:
         """Run callbacks until a stop is requested or ``until()`` is true (checked between
-        two callbacks, and at least every :data:`STOP_POLL_S` seconds)."""
-        while not self.stopped and not until():
-            self.executor.spin_once(timeout_sec=STOP_POLL_S)
+        two callbacks, and at least every :data:`STOP_POLL_S` seconds).  A context shut down
+        by someone else while it waits ends it as a stop does."""
+        try:
+            while not self.stopped and not until():
+                self.executor.spin_once(timeout_sec=STOP_POLL_S)
+        except ExternalShutdownException:
+            self._stop.set()
 
     def drain(self, max_s: float = 2.0) -> int:
         """Run, without waiting, the callbacks whose data have already arrived; return how
@@ -197,7 +201,9 @@ def ros_runtime(args: list[str] | None = None) -> Iterator[RosRuntime]:
     raised) and initialises rclpy with ``args`` but without its own signal handlers.  On
     leaving the block, in this thread and in this order: the executor is shut down, the
     nodes added with :meth:`RosRuntime.add_node` are destroyed (last added first), and only
-    then the rclpy context is shut down.  A signal during that cleanup changes nothing; the
+    then the rclpy context is shut down; a step that raises is reported on stderr, the steps
+    after it still run, and its error is raised at the end (chained to the block's own, if
+    any).  A signal during that cleanup changes nothing; the
     handlers stay installed until the process exits, so that work done after the block
     (closing a file) is not interrupted either.
 
@@ -220,14 +226,19 @@ def ros_runtime(args: list[str] | None = None) -> Iterator[RosRuntime]:
     try:
         executor = runtime.executor = SingleThreadedExecutor()
         yield runtime
-    except ExternalShutdownException:  # the context was shut down by someone else
-        pass
     finally:
-        if executor is not None:
-            executor.shutdown()
-        for node in reversed(runtime._nodes):
-            node.destroy_node()
-        rclpy.try_shutdown()
+        steps = ([executor.shutdown] if executor is not None else []) + [
+            node.destroy_node for node in reversed(runtime._nodes)] + [rclpy.try_shutdown]
+        errors = []
+        for step in steps:  # one step that fails must not skip the others
+            try:
+                step()
+            except Exception as err:
+                errors.append(err)
+                print(f"shutdown: {getattr(step, '__qualname__', step)}: "
+                      f"{type(err).__name__}: {err}", file=sys.stderr, flush=True)
+        if errors:
+            raise errors[0]
 
 
 def run_node(node_class: Callable[[], Node], args: list[str] | None = None) -> int:
