@@ -431,6 +431,17 @@ def test_echo_damage_state_prints_the_latched_state_and_exits_after_count(
     listener.node.destroy_publisher(pub)
 
 
+def sample_block(cls: Any, sensor_id: str, k: int, n: int, xyz: list[float]) -> Any:
+    """Block ``k`` of ``n`` three-axis samples at 200 Hz of one accelerometer (``cls`` the
+    SampleBlock message class), all equal to ``xyz`` (m/s²), stamped at ``k n / 200`` s."""
+    msg = cls(sensor_id=sensor_id, kind=0, unit="m/s^2", sample_rate_hz=200.0,
+              first_sample_index=n * k, axes=["x", "y", "z"], data=list(xyz) * n)
+    t_ns = 1_700_000_000 * 10 ** 9 + k * n * 5_000_000
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t_ns, 10 ** 9)
+    msg.header.frame_id = sensor_id
+    return msg
+
+
 @pytest.mark.timeout(60)
 def test_record_topics_writes_an_mcap_that_decodes_with_mcap_ros2(
         listener, spawn_python, tmp_path, fields_equal):
@@ -458,12 +469,7 @@ def test_record_topics_writes_an_mcap_that_decodes_with_mcap_ros2(
     time.sleep(0.3)
     blocks = []
     for k in range(25):
-        msg = SampleBlock(sensor_id="l0_acc_nw", kind=0, unit="m/s^2", sample_rate_hz=200.0,
-                          first_sample_index=20 * k, axes=["x", "y", "z"],
-                          data=[float(k), 0.5, 9.81] * 20)
-        msg.header.stamp.sec = 1_700_000_000 + k // 10
-        msg.header.stamp.nanosec = (k % 10) * 100_000_000
-        msg.header.frame_id = "l0_acc_nw"
+        msg = sample_block(SampleBlock, "l0_acc_nw", k, 20, [float(k), 0.5, 9.81])
         block_pub.publish(msg)
         blocks.append(msg)
         time.sleep(0.01)
@@ -515,12 +521,7 @@ def test_record_topics_stopped_by_sigint_closes_a_bag_with_every_message_receive
     time.sleep(0.3)
     sent = []
     for k in range(40):
-        msg = SampleBlock(sensor_id="l1_acc_se", kind=0, unit="m/s^2", sample_rate_hz=200.0,
-                          first_sample_index=50 * k, axes=["x", "y", "z"],
-                          data=[0.01 * k, -0.5, 9.81] * 50)
-        msg.header.stamp.sec = 1_700_000_000 + k // 4
-        msg.header.stamp.nanosec = (k % 4) * 250_000_000
-        msg.header.frame_id = "l1_acc_se"
+        msg = sample_block(SampleBlock, "l1_acc_se", k, 50, [0.01 * k, -0.5, 9.81])
         pub.publish(msg)
         sent.append(msg)
     # every message is in the recorder's reader before the signal (reliable: acknowledged)

@@ -196,18 +196,23 @@ def test_the_cumulative_state_reads_the_members_interval_scaled(base_window):
     assert cum.sections[0].reasons == ("DF 90 % interval [1.03, 1.26] straddles 1.2",)
 
 
+def first_event_with_base_df(w: MeasuredWindow, df: Spread) -> IdentificationResult:
+    """:func:`first_event` whose yielded base section carries members with the DF spread
+    ``df`` (every member yielded and damaged)."""
+    first = first_event(w)
+    u = replace(members_elastic(), ductility_factor=df, p_yielded=1.0, p_state=(0.0, 0.0, 1.0))
+    return replace(first, sections=(replace(first.sections[0], uncertainty=u),
+                                    *first.sections[1:]))
+
+
 def test_the_cumulative_df_interval_carries_the_reference_rotation_uncertainty(base_window):
     """The cumulative DF is this event's peak over the baseline's yield rotation: its interval
     holds the baseline's uncertainty of that rotation as well as this event's members'."""
     w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
     u = members_elastic()
-    first = first_event(w1)
     # the baseline's base section yielded (θy 4e-3 rad, DF 1.5) with a DF interval 10 % below
     # and 20 % above its mean: a yield rotation that may be larger or smaller
-    base_u = replace(u, ductility_factor=Spread(1.5, 0.1, 1.35, 1.8), p_yielded=1.0,
-                     p_state=(0.0, 0.0, 1.0))
-    first = replace(first, sections=(replace(first.sections[0], uncertainty=base_u),
-                                     *first.sections[1:]))
+    first = first_event_with_base_df(w1, Spread(1.5, 0.1, 1.35, 1.8))
     own = second_event(w2)
     s1 = replace(own.sections[0], uncertainty=u, ductility_factor=0.8, max_angle_rad=6.4e-3,
                  yield_angle_rad=8e-3, state="intact")
@@ -259,12 +264,8 @@ def test_a_widened_cumulative_interval_is_flagged_and_never_negative(base_window
     that add up past 100 % stop the interval at zero."""
     w1, w2 = window(base_window, "ev1", 10.0), window(base_window, "ev2", 100.0)
     u = members_elastic()
-    first = first_event(w1)
     # baseline base section: DF 1.5 with an interval 60 % below and 70 % above its mean
-    base_u = replace(u, ductility_factor=Spread(1.5, 0.5, 0.6, 2.55), p_yielded=1.0,
-                     p_state=(0.0, 0.0, 1.0))
-    first = replace(first, sections=(replace(first.sections[0], uncertainty=base_u),
-                                     *first.sections[1:]))
+    first = first_event_with_base_df(w1, Spread(1.5, 0.5, 0.6, 2.55))
     own = second_event(w2)
     # this event: DF 0.8 alone, its members 10 % either side (peak 6.4e-3 on 8e-3 rad),
     # then 90 % below: cumulative 1.6, interval combined to 0 below
