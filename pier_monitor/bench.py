@@ -711,9 +711,7 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
     df = np.array([s.ductility_factor for s in result.sections])
     err = 100.0 * np.abs(df / true_df - 1.0)
     misfit = result.model_misfit or {}
-    interval = [None if s.uncertainty is None else
-                _finite_pair(s.uncertainty.ductility_factor.lo, s.uncertainty.ductility_factor.hi)
-                for s in result.sections]
+    interval = _df_intervals(result.sections)
     return {
         "case": f"rc_{hyst}_{pier}_{layout}_{shaking}", "seed": seed,
         "split": "tuning" if seed in RC_TUNING_SEEDS else "held_out",
@@ -838,11 +836,7 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
                     "k1_change_interval_pct": [
                         None if s.k1_change_lo_pct is None
                         else [s.k1_change_lo_pct, s.k1_change_hi_pct] for s in result.sections],
-                    "df_interval": [
-                        None if s.uncertainty is None
-                        else _finite_pair(s.uncertainty.ductility_factor.lo,
-                                          s.uncertainty.ductility_factor.hi)
-                        for s in result.sections],
+                    "df_interval": _df_intervals(result.sections),
                     "poorly_identified": [list(s.poorly_identified) for s in result.sections],
                     "k_small_after": [s.k_small_after for s in result.sections],
                     "true_k_small_before": [float(v) for v in truth.k_small_before],
@@ -880,6 +874,13 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
 def _finite_pair(lo: float, hi: float) -> list[float] | None:
     """``[lo, hi]``, or None where either bound is not finite (strict JSON)."""
     return [float(lo), float(hi)] if np.isfinite(lo) and np.isfinite(hi) else None
+
+
+def _df_intervals(sections: Any) -> list[list[float] | None]:
+    """Each section's 90 % DF interval ``[lo, hi]``, None where it has none."""
+    return [None if s.uncertainty is None else
+            _finite_pair(s.uncertainty.ductility_factor.lo, s.uncertainty.ductility_factor.hi)
+            for s in sections]
 
 
 def _rc_suite(seeds: tuple[int, ...] = RC_HELD_OUT_SEEDS) -> list[dict[str, Any]]:

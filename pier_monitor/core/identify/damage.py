@@ -216,6 +216,18 @@ def _may_have_yielded(yielded: bool, uncertainty: SectionUncertainty | None) -> 
             and uncertainty.p_yielded >= P_YIELD_LOW)
 
 
+def _misfit_says_unidentified(evidence: Sequence[str]) -> bool:
+    """Whether ``evidence`` holds rule 8's line (:data:`BILINEAR_MISFIT`): the section's
+    ``k1`` and DF are not identified."""
+    return any(e.startswith(BILINEAR_MISFIT) for e in evidence)
+
+
+def _flagged(flags: tuple[str, ...], *names: str) -> tuple[str, ...]:
+    """``flags`` (a section's ``poorly_identified``) with ``names`` added, in the order of
+    :data:`IDENTIFIABILITY_LIMITS`."""
+    return tuple(k for k in IDENTIFIABILITY_LIMITS if k in flags or k in names)
+
+
 def _bilinear_misfit(model_misfit: dict[str, Any] | None, family: dict[str, Any] | None
                      ) -> str | None:
     """Rule 8's evidence line where the self-check's misfit (``model_misfit``, its
@@ -350,7 +362,7 @@ def _with_evidence(state: DamageState, reasons: tuple[str, ...], evidence: Seque
     evidence = tuple(str(e) for e in evidence)
     if not evidence:
         return state, reasons
-    if state == DamageState.DAMAGED and any(e.startswith(BILINEAR_MISFIT) for e in evidence):
+    if state == DamageState.DAMAGED and _misfit_says_unidentified(evidence):
         state = DamageState.SUSPICIOUS
         reasons = (*reasons, "DF not identified (the bilinear springs misfit): not called "
                              "damaged on it")
@@ -522,8 +534,8 @@ class SectionResult:
         (:func:`_cumulative_df_spread`); where that makes it wider than its limit the DF is
         flagged poorly identified.
         """
-        if not math.isfinite(self.ductility_factor) or any(
-                e.startswith(BILINEAR_MISFIT) for e in baseline.evidence):
+        if not math.isfinite(self.ductility_factor) or _misfit_says_unidentified(
+                baseline.evidence):
             return self  # rule 8: the baseline's yield rotation and k1 are not identified
         if baseline.yielded and math.isfinite(baseline.yield_angle_rad):
             theta_y = float(baseline.yield_angle_rad)
@@ -545,9 +557,9 @@ class SectionResult:
                 u.ductility_factor, float(self.ductility_factor), df,
                 _reference_spread(baseline) if yielded else None))
         flags = self.poorly_identified
-        if u is not None and _too_wide(u.ductility_factor, "DF") and "DF" not in flags:
+        if u is not None and _too_wide(u.ductility_factor, "DF"):
             # the reference's uncertainty can widen the interval past the DF's limit
-            flags = tuple(k for k in IDENTIFIABILITY_LIMITS if k in flags or k == "DF")
+            flags = _flagged(flags, "DF")
         out = replace(self, ductility_factor=df, yield_angle_rad=theta_y, yielded=yielded,
                       uncertainty=u, poorly_identified=flags,
                       event_ductility_factor=float(own.ductility_factor),
@@ -797,9 +809,7 @@ class IdentificationResult:
             ev = tuple(str(r) for r in ev)
             if bilinear_misfit and is_diagnosis(s.damage_state):  # rule 8
                 ev = (*ev, bilinear_misfit)
-                s = replace(s, poorly_identified=tuple(
-                    k for k in IDENTIFIABILITY_LIMITS
-                    if k in s.poorly_identified or k in ("k1", "DF")))
+                s = replace(s, poorly_identified=_flagged(s.poorly_identified, "k1", "DF"))
             s = replace(s, energy_index=float(e), evidence=ev)
             if ev and is_diagnosis(s.damage_state):
                 state, reasons = _with_evidence(s.damage_state, s.reasons, ev)

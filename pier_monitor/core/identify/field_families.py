@@ -585,7 +585,7 @@ def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2:
         N·m·s/rad), as :func:`~pier_monitor.core.identify.families.takeda_draws`.
     """
     pb, n = tf.pb, tf.pb.n
-    j = np.asarray(jac.toarray() if hasattr(jac, "toarray") else jac, dtype=float)
+    j = np.asarray(jac, dtype=float)  # dense: the fit's own Jacobian function makes it
     if not np.all(np.isfinite(j)):
         return None
     j_d, j_p = j[:tf.n_data], j[tf.n_data:]
