@@ -86,7 +86,9 @@ class QueueWorker(Generic[T]):
         self._queue.put(_STOP)
         self._thread.join(timeout=report_every_s)
         while self._thread.is_alive():
-            log(f"{self._thread.name}: still handling, {self.backlog} items queued")
+            # The stop marker is in the queue until the thread takes it, as its last item.
+            left = max(self.backlog - 1, 0)
+            log(f"{self._thread.name}: still handling, {left} items queued")
             self._thread.join(timeout=report_every_s)
 
     def _run(self) -> None:
