@@ -8,7 +8,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pier_monitor.core.identify.damage import IdentificationResult, build_sections
+from pier_monitor.core.identify.damage import (MODEL_MISFIT_NOT_DAMAGED, IdentificationResult,
+                                               build_sections)
+from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
 from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, MisfitLimits,
                                                   energy_indices, model_misfit,
                                                   section_evidence, simulate_identified)
@@ -176,10 +178,65 @@ def test_a_model_misfit_of_bilinear_springs_leaves_their_df_unidentified(cases):
     # no misfit, or a reinforced-concrete family chosen: the DF stands
     clean = own.with_evidence(energy, evidence, model_misfit(window, truth).as_dict())
     assert clean.sections[0].state == "damaged" and clean.sections[0].poorly_identified == ()
+    # a Takeda family: k1 and DF not flagged; rule 9 then decides on the DF interval
     takeda = dataclasses.replace(own, family={"family": "takeda"}).with_evidence(
         energy, evidence, misfit.as_dict())
-    assert takeda.sections[0].state == "damaged"
     assert takeda.sections[0].poorly_identified == ()
+
+
+def _base_uncertainty(df: Spread, p_state: tuple[float, float, float]) -> SectionUncertainty:
+    """An ensemble's uncertainty of the base (16 members) with DF interval ``df``."""
+    return SectionUncertainty(k1=Spread(1.2e9, 1e7, 1.18e9, 1.22e9), k2=Spread.undefined(),
+                              fy=Spread.undefined(), c=Spread(2e7, 1e6, 1.9e7, 2.1e7),
+                              ductility_factor=df, p_yielded=1.0, p_state=p_state, members=16)
+
+
+@pytest.mark.parametrize("df_interval, members, state", [
+    ((1.55, 2.9), 16, "damaged"),      # clear of 1.5: the damaged call stands
+    ((1.34, 2.07), 16, "suspicious"),  # seed 301's case: reaches below 1.5
+    (None, 1, "suspicious"),           # no interval: nothing shows it clears 1.5
+])
+def test_under_a_model_misfit_damaged_needs_a_df_interval_clear_of_1_5(
+        cases, df_interval, members, state):
+    """Rule 9: a Takeda family that misfits calls a section damaged only on a 90 % DF
+    interval at or above 1.5; the members' probabilities follow the states."""
+    window, truth, _ = cases[1]
+    softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
+    sim = simulate_identified(window, softer)
+    misfit = model_misfit(dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x), truth)
+    theta = np.outer(np.sin(np.linspace(0, 20, window.t.size)),
+                     np.array([1.73, 0.5, 0.5, 0.5]) * truth.yield_angles)
+    sections = build_sections(window.geometry, truth, theta,
+                              np.array([True, False, False, False]))
+    p = (0.0, 0.2, 0.8)
+    if members > 1:
+        u = _base_uncertainty(Spread(1.73, 0.2, *df_interval), p)
+        sections = (dataclasses.replace(sections[0], uncertainty=u), *sections[1:])
+    own = IdentificationResult(
+        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
+        overall_state="damaged", window_start_s=0.0, window_duration_s=window.duration_s,
+        epochs=0, final_loss=float("nan"), wall_time_s=0.0, device="cpu",
+        family={"family": "takeda"}, p_overall_state=p if members > 1 else None)
+    assert own.sections[0].state == "damaged"
+    result = own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict())
+    base = result.sections[0]
+    assert base.state == state and result.overall_state == state
+    assert result.misfit_is_model
+    if state == "suspicious":
+        assert base.reasons[-1].startswith(f"{MODEL_MISFIT_NOT_DAMAGED} (")
+        assert ("no interval" if df_interval is None else "[1.34, 2.07]") in base.reasons[-1]
+    # decided again against a baseline (e.g. result.json read back): the rule stays
+    rebased = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
+        truth.k1, "design values")
+    assert rebased.sections[0].state == state
+    if members > 1:  # the damaged share goes to suspicious where no section stays damaged
+        assert result.p_overall_state == pytest.approx(
+            p if state == "damaged" else (0.0, 1.0, 0.0))
+    else:
+        assert result.p_overall_state is None
+    # without a misfit the members' most probable state stands
+    clean = own.with_evidence(np.zeros(4), [()] * 4, model_misfit(window, truth).as_dict())
+    assert clean.sections[0].state == "damaged" and clean.p_overall_state == own.p_overall_state
 
 
 def test_without_a_misfit_only_a_large_energy_promotes(cases):

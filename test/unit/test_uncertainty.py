@@ -18,8 +18,9 @@ import pytest
 
 from ensemble_helpers import (MEMBERS, ensemble_result, normal_members, yielded_members)
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.identify.damage import (P_YIELD_LOW, DamageState, IdentificationResult,
-                                               build_sections, classify_ductility, decide_state)
+from pier_monitor.core.identify.damage import (BILINEAR_MISFIT, P_YIELD_LOW, DamageState,
+                                               IdentificationResult, build_sections,
+                                               classify_ductility, decide_state)
 from pier_monitor.core.identify.uncertainty import (MemberResponses, Spread, k1_change_interval,
                                                     overall_state_probabilities,
                                                     summarize_members)
@@ -194,6 +195,23 @@ def test_a_k1_loss_of_13_plus_minus_1_percent_against_an_event_flags_cracking() 
         "run1, beyond the identification scatter (")
     assert s.reasons[0].endswith("%): cracking")
     assert after.with_baseline(before).overall_state == "suspicious"
+
+
+def test_a_k1_loss_of_a_k1_that_rule_8_says_is_not_identified_is_no_cracking() -> None:
+    """The same 13 % loss, where the self-check said the bilinear springs do not follow the
+    pier (rule 8) in the later event or in the baseline: the change is shown, the loss is no
+    reason (the k1 compared is not identified)."""
+    before, after = _k1_events(0.13, 0.01)
+    misfit = (f"{BILINEAR_MISFIT}: the bilinear springs identified do not reproduce ...",)
+
+    def unidentified(r: IdentificationResult) -> IdentificationResult:
+        return replace(r, sections=tuple(replace(x, evidence=misfit) for x in r.sections))
+
+    for b, a in ((unidentified(before), after), (before, unidentified(after))):
+        s = a.with_baseline(b).sections[0]
+        assert s.k1_change_pct == pytest.approx(-13.0, abs=1e-9)
+        assert not any("cracking" in r for r in s.reasons)
+    assert after.with_baseline(unidentified(before)).sections[0].state == "intact"
 
 
 def test_a_k1_loss_of_1_plus_minus_2_percent_does_not_flag_cracking() -> None:
