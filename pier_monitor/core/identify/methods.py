@@ -38,8 +38,8 @@ import numpy as np
 
 from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.fileio import finite_or_none
-from pier_monitor.core.identify.damage import (IdentificationResult, build_sections,
-                                               k1_change_pct, member_ductility, overall_state,
+from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, IdentificationResult,
+                                               build_sections, k1_change_pct, member_ductility, overall_state,
                                                with_family, with_identifiability)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
@@ -870,7 +870,8 @@ def _summarize_draws(d: EnsembleDraws, df_resolution: float
     # the fit's own DF (member 0), with its resolution that no member shows
     uncertainty = with_df_resolution(uncertainty, d.ductility[0], d.yielded[0], df_resolution)
     uncertainty = with_c_resolution(uncertainty, d.params[0, :, 3])
-    uncertainty = without_k1_on_bound(uncertainty, getattr(d, "k1_at_bound", None))
+    uncertainty = without_k1_on_bound(uncertainty, getattr(d, "k1_at_bound", None),
+                                      IDENTIFIABILITY_LIMITS["k1"])
     finite = np.isfinite(d.ductility).all(axis=1)  # a draw the spring family did not admit
     return uncertainty, overall_state_probabilities(d.ductility[finite], d.yielded[finite])
 

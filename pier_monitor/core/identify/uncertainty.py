@@ -307,16 +307,21 @@ def with_c_resolution(uncertainty: tuple[SectionUncertainty, ...], c: np.ndarray
 
 
 def without_k1_on_bound(uncertainty: tuple[SectionUncertainty, ...],
-                        at_bound: np.ndarray | None) -> tuple[SectionUncertainty, ...]:
+                        at_bound: np.ndarray | None, limit: float
+                        ) -> tuple[SectionUncertainty, ...]:
     """``uncertainty`` with no ``k1`` interval (:meth:`Spread.undefined`, so "poorly
-    identified") for the sections ``at_bound`` (N,) marks: their ``k1`` ended on a search
-    box in the fit or a member, so the box, not the data, ends the members' spread, and an
-    interval of members piled on it is narrow and may be far from the truth (before the
-    field fit's box held the prior's mean: held-out seed 602, Table 1 pier, accelerometers,
-    the top spring at -32 % in all 32 members).  None: unchanged."""
+    identified") for the sections ``at_bound`` (N,) marks whose interval is not already
+    wider than ``limit`` (relative half-width, the ``k1`` limit of a poorly identified
+    quantity): their ``k1`` ended on a search box, so the box, not the data, ends the
+    members' spread, and an interval of members piled on it is narrow and may be far from
+    the truth (before the field fit's box held the prior's mean: held-out seed 602, Table 1
+    pier, accelerometers, the top spring at -32 % in all 32 members).  An interval already
+    wider than the limit is flagged by its width and kept: it still says how far the members
+    went.  ``at_bound`` None: unchanged."""
     if at_bound is None:
         return uncertainty
-    return tuple(replace(u, k1=Spread.undefined()) if b else u
+    return tuple(replace(u, k1=Spread.undefined())
+                 if b and u.k1.relative_half_width() <= limit else u
                  for u, b in zip(uncertainty, np.asarray(at_bound, dtype=bool), strict=True))
 
 
