@@ -178,10 +178,13 @@ def test_a_model_misfit_of_bilinear_springs_leaves_their_df_unidentified(cases):
     # no misfit, or a reinforced-concrete family chosen: the DF stands
     clean = own.with_evidence(energy, evidence, model_misfit(window, truth).as_dict())
     assert clean.sections[0].state == "damaged" and clean.sections[0].poorly_identified == ()
-    # a Takeda family: k1 and DF not flagged; rule 9 then decides on the DF interval
+    # a Takeda family: k1 and DF not flagged; rule 9 then decides on the DF interval, and
+    # without one (a single identification) the base is not called damaged
     takeda = dataclasses.replace(own, family={"family": "takeda"}).with_evidence(
         energy, evidence, misfit.as_dict())
     assert takeda.sections[0].poorly_identified == ()
+    assert takeda.sections[0].state == "suspicious"
+    assert takeda.sections[0].reasons[-1].startswith(f"{MODEL_MISFIT_NOT_DAMAGED} (no interval)")
 
 
 def _base_uncertainty(df: Spread, p_state: tuple[float, float, float]) -> SectionUncertainty:

@@ -197,10 +197,11 @@ def test_a_k1_loss_of_13_plus_minus_1_percent_against_an_event_flags_cracking() 
     assert after.with_baseline(before).overall_state == "suspicious"
 
 
-def test_a_k1_loss_of_a_k1_that_rule_8_says_is_not_identified_is_no_cracking() -> None:
+def test_a_k1_loss_of_a_k1_that_is_not_identified_is_no_cracking() -> None:
     """The same 13 % loss, where the self-check said the bilinear springs do not follow the
-    pier (rule 8) in the later event or in the baseline: the change is shown, the loss is no
-    reason (the k1 compared is not identified)."""
+    pier (rule 8) in the later event or in the baseline, or where the baseline's k1 has no
+    interval: the change is shown, the loss is no reason (the k1 compared is not
+    identified)."""
     before, after = _k1_events(0.13, 0.01)
     misfit = (f"{BILINEAR_MISFIT}: the bilinear springs identified do not reproduce ...",)
 
@@ -212,6 +213,14 @@ def test_a_k1_loss_of_a_k1_that_rule_8_says_is_not_identified_is_no_cracking() -
         assert s.k1_change_pct == pytest.approx(-13.0, abs=1e-9)
         assert not any("cracking" in r for r in s.reasons)
     assert after.with_baseline(unidentified(before)).sections[0].state == "intact"
+    # a baseline k1 left without an interval (the search box ended it) is no reference
+    # either: taken as exact it would turn its own error into a loss
+    boxed = replace(before, sections=tuple(
+        replace(x, uncertainty=replace(x.uncertainty, k1=Spread.undefined()))
+        for x in before.sections))
+    s = after.with_baseline(boxed).sections[0]
+    assert s.k1_change_pct == pytest.approx(-13.0, abs=1e-9)
+    assert (s.state, s.reasons) == ("intact", ())
 
 
 def test_a_k1_loss_of_1_plus_minus_2_percent_does_not_flag_cracking() -> None:

@@ -238,6 +238,16 @@ def _misfit_says_unidentified(evidence: Sequence[str]) -> bool:
     return any(e.startswith(BILINEAR_MISFIT) for e in evidence)
 
 
+def _k1_unidentified(section: SectionResult) -> bool:
+    """Whether ``section``'s ``k1`` is no reference for a ``k1`` loss: rule 8 says it is not
+    identified, or its ensemble left it without an interval (a ``k1`` the search box ended,
+    :func:`~pier_monitor.core.identify.uncertainty.without_k1_on_bound`); taken as exact it
+    would turn its error into a loss beyond the scatter."""
+    u = section.uncertainty
+    return _misfit_says_unidentified(section.evidence) or (
+        u is not None and u.members >= 2 and not u.k1.defined)
+
+
 def _flagged(flags: tuple[str, ...], *names: str) -> tuple[str, ...]:
     """``flags`` (a section's ``poorly_identified``) with ``names`` added, in the order of
     :data:`IDENTIFIABILITY_LIMITS`."""
@@ -780,8 +790,8 @@ class IdentificationResult:
         ``spreads`` are the baseline's ``k1`` spreads per section (None where it has none),
         ``event`` says that the baseline is an earlier event (:meth:`with_baseline`).
         ``own_k1`` (N,) is the stiffness compared with it (default the sections' ``k1``);
-        ``unidentified`` (N,) says where the baseline's ``k1`` is not identified (rule 8 there:
-        no loss against it is cracking).
+        ``unidentified`` (N,) says where the baseline's ``k1`` is not identified (rule 8 there,
+        or no interval: no loss against it is cracking).
         """
         own = self.params.k1 if own_k1 is None else np.asarray(own_k1, dtype=float)
         change = k1_change_pct(own, baseline_k1)
@@ -790,7 +800,10 @@ class IdentificationResult:
         if len(spreads) != len(self.sections):
             raise InputDataError(f"baseline k1 spreads: expected {len(self.sections)}, got "
                                  f"{len(spreads)}")
-        unidentified = [False] * len(self.sections) if unidentified is None else unidentified
+        unidentified = [False] * len(self.sections) if unidentified is None else list(unidentified)
+        if len(unidentified) != len(self.sections):
+            raise InputDataError(f"baseline k1 unidentified flags: expected {len(self.sections)}, "
+                                 f"got {len(unidentified)}")
         sections = tuple(s.rebased(float(b), float(d), label, sp, event=event,
                                    stiffness=float(k), baseline_unidentified=bool(x),
                                    model_misfit=self.misfit_is_model)
@@ -915,7 +928,7 @@ class IdentificationResult:
             base, f"event {baseline.event_id}", event=True,
             spreads=[s.k1_spread_of(float(k)) for s, k in zip(baseline.sections, base)],
             own_k1=self.small_amplitude_stiffness,
-            unidentified=[_misfit_says_unidentified(s.evidence) for s in baseline.sections])
+            unidentified=[_k1_unidentified(s) for s in baseline.sections])
 
     @property
     def small_amplitude_stiffness(self) -> np.ndarray:
