@@ -290,32 +290,3 @@ def test_in_a_sparse_layout_a_section_answers_to_the_next_measured_level_up():
     # sections 1-2 carry level 2's motion, 3-4 level 4's, 5-6 level 6's
     assert [bool(ev) for ev in evidence] == [True, True, False, False, True, True]
     assert "level 2's acceleration by 90% RMS" in evidence[0][0]
-
-
-def test_the_check_simulates_the_takeda_springs_where_that_family_was_chosen(cases):
-    """A pier whose springs are modified-Takeda: the check of a result that chose that family
-    simulates its springs (the family's parameters and dampers in result.json), and they
-    reproduce the responses; the bilinear fit beside them, simulated, misfits."""
-    from pier_monitor.core.identify.selfcheck import self_check, takeda_springs
-    from pier_monitor.core.model.springs import TakedaParameters
-
-    window, truth, _ = cases[1]
-    k0, ty = 1.6 * truth.k1, truth.fy / truth.k1
-    springs = tuple(TakedaParameters(k0=k0[i], mc=0.25 * truth.fy[i], my=truth.fy[i],
-                                     theta_y=ty[i], kp=0.03 * k0[i], alpha=0.4, pinch_x=0.6,
-                                     pinch_y=0.35) for i in range(4))
-    family = {"family": "takeda", "sections": [
-        {"fits": {"takeda": {"params": {**dataclasses.asdict(s), "k_y": s.k_y},
-                             "c": float(c)}}} for s, c in zip(springs, truth.c)]}
-    parsed, c = takeda_springs(family, 4)
-    assert parsed == springs and np.array_equal(c, truth.c)
-    assert takeda_springs({**family, "family": "bilinear"}, 4) is None
-    assert takeda_springs(family, 5) is None
-    sim = simulate_identified(window, truth, takeda=springs)
-    assert np.abs(sim.theta).max(axis=0)[0] > 2 * ty[0]  # the base yields
-    measured = dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x)
-    theta = sim.theta
-    check = self_check(measured, truth, theta, sim.a, family=family)
-    assert check.misfit.kind == "none" and max(e.misfit for e in check.misfit.entries) < 0.01
-    bilinear = self_check(measured, truth, theta, sim.a)
-    assert bilinear.misfit.fires

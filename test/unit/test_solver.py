@@ -11,7 +11,6 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.model.link_model import (angle_matrix, bilinear_step, damping_matrix,
                                      elastic_stiffness_matrix, estimated_moments,
                                      natural_periods)
-from pier_monitor.core.model.ground_motion import synthetic_near_fault
 from pier_monitor.core.model.solver import simulate
 
 DT = 0.001
@@ -299,51 +298,3 @@ def test_simulate_rejects_bad_input(table1):
         simulate(geometry, params, np.zeros(10), 0.01, output_dt=0.0025)
     with pytest.raises(InputDataError, match="expected 6 springs"):
         simulate(geometry, SpringParameters([1e9], [1e8], [1e6], [1e6]), np.zeros(10), 0.01)
-
-
-def _takeda_springs(params, gross=1.6):
-    """Modified-Takeda springs about bilinear ``params``: ``k0 = gross k1``, yield at
-    ``fy``/``fy/k1``, cracking at a quarter of it, post-yield slope 3 % of ``k0``."""
-    from pier_monitor.core.model.springs import TakedaParameters
-
-    k0, ty = gross * params.k1, params.fy / params.k1
-    return tuple(TakedaParameters(k0=k0[i], mc=0.25 * params.fy[i], my=params.fy[i],
-                                  theta_y=ty[i], kp=0.03 * k0[i], alpha=0.4, pinch_x=0.6,
-                                  pinch_y=0.35) for i in range(params.n_springs))
-
-
-def test_takeda_springs_below_cracking_move_as_the_linear_model(table1):
-    """Below the cracking moment a Takeda spring is linear at k0: the explicit integration
-    of Takeda springs reproduces the Newmark solution of the linear model (springs k0)."""
-    geometry, params = table1
-    gm = synthetic_near_fault(pga_mps2=8.0)
-    takeda = _takeda_springs(params)
-    small = simulate(geometry, params, gm.acc * 1e-4, gm.dt, takeda=takeda)
-    k0 = np.array([t.k0 for t in takeda])
-    linear = simulate(geometry, SpringParameters(k0, 0.5 * k0, np.full(6, 1e15), params.c),
-                      gm.acc * 1e-4, gm.dt)
-    assert np.abs(small.theta).max(axis=0).max() < takeda[0].theta_c  # no cracking
-    np.testing.assert_allclose(small.x, linear.x, atol=1e-4 * np.abs(linear.x).max())
-    np.testing.assert_allclose(small.a, linear.a, atol=1e-3 * np.abs(linear.a).max())
-
-
-def test_takeda_springs_past_yield_converge_with_the_step(table1):
-    """Past yield (the base at about four times its yield rotation) the explicit integration
-    is stable at its own step and converges: halving it moves the displacements by
-    less than 1e-4 of their peak; the base keeps a residual rotation."""
-    from pier_monitor.core.model.solver import takeda_stable_step
-
-    geometry, params = table1
-    gm = synthetic_near_fault(pga_mps2=6.0)
-    takeda = _takeda_springs(params)
-    step = takeda_stable_step(geometry, takeda, params.c)
-    assert 1e-6 < step < 1e-3
-    coarse = simulate(geometry, params, gm.acc, gm.dt, takeda=takeda)
-    fine = simulate(geometry, params, gm.acc, gm.dt, takeda=takeda,
-                    dt=gm.dt / np.ceil(2 * gm.dt / step))
-    peak = np.abs(coarse.theta).max(axis=0) / (params.fy / params.k1)
-    assert peak[0] > 3 and peak[-1] < 1
-    assert np.abs(coarse.x - fine.x).max() < 1e-4 * np.abs(fine.x).max()
-    assert abs(coarse.theta[-1, 0]) > 0.5 * (params.fy[0] / params.k1[0])  # a residual
-    with pytest.raises(InputDataError, match="takeda"):
-        simulate(geometry, params, gm.acc, gm.dt, takeda=takeda[:3])
