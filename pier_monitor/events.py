@@ -168,8 +168,7 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
                             window_file=window_file, paths=None)
     reasons = check_identification(_checked_params(run.result, window), run.reproduced,
                                    window)
-    check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a,
-                       family=run.result.family)
+    check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a)
     reasons = [*reasons, *check.unreliable_reasons]
     result = run.result
     if baseline is not None and not reasons:  # an unreliable result's DF is no diagnosis

@@ -63,7 +63,7 @@ energy at its peak.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -74,11 +74,10 @@ from pier_monitor.core.identify.equation_error import inertia_moments
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.solver import Response, simulate
-from pier_monitor.core.model.springs import TakedaParameters
 
 __all__ = ["MisfitLimits", "MisfitEntry", "ModelMisfit", "simulate_identified",
            "model_misfit", "judge_misfit", "allowed_misfit", "energy_indices", "ENERGY_INDEX_LARGE",
-           "ENERGY_INDEX_MISFIT", "SelfCheck", "self_check", "section_evidence", "takeda_springs"]
+           "ENERGY_INDEX_MISFIT", "SelfCheck", "self_check", "section_evidence"]
 
 #: Energy index (hysteretic energy / elastic energy at the peak) above which a section has
 #: dissipated more than damping errors and noise give an elastic section: it makes a
@@ -221,32 +220,8 @@ class ModelMisfit:
                 "entries": [e.as_dict() for e in self.entries]}
 
 
-def takeda_springs(family: dict | None, n: int
-                   ) -> tuple[tuple[TakedaParameters, ...], np.ndarray] | None:
-    """The modified-Takeda springs and dampers ``c`` (N,), N·m·s/rad, of a family choice
-    (``IdentificationResult.family``, :meth:`~pier_monitor.core.identify.families.
-    FamilyChoice.as_dict`) where the Takeda was chosen; None otherwise, or where a section's
-    fit is missing or not a valid spring."""
-    if not family or family.get("family") != "takeda" or len(family.get("sections", ())) != n:
-        return None
-    fields = ("k0", "mc", "my", "theta_y", "kp", "alpha", "pinch_x", "pinch_y")
-    springs, c = [], []
-    for sec in family["sections"]:
-        fit = (sec.get("fits") or {}).get("takeda")
-        if not fit or any(k not in fit.get("params", {}) for k in fields):
-            return None
-        try:
-            springs.append(TakedaParameters(**{k: fit["params"][k] for k in fields}))
-        except (InputDataError, TypeError):
-            return None
-        c.append(float(fit.get("c", 0.0)))
-    c = np.asarray(c, dtype=float)
-    return (tuple(springs), c) if np.all(np.isfinite(c) & (c >= 0)) else None
-
-
 def simulate_identified(window: MeasuredWindow, params: SpringParameters, *,
-                        internal_dt: float = 0.001,
-                        takeda: tuple[TakedaParameters, ...] | None = None) -> Response:
+                        internal_dt: float = 0.001) -> Response:
     """The identified model simulated under the window's foundation acceleration, from rest.
 
     Parameters
@@ -257,9 +232,6 @@ def simulate_identified(window: MeasuredWindow, params: SpringParameters, *,
         The identified ``k1, k2, fy, c`` (N springs, SI).
     internal_dt : float
         Largest integration step, s; the step used divides ``window.dt``.
-    takeda : tuple of TakedaParameters, optional
-        The identified modified-Takeda springs where that family was chosen: they are
-        simulated (``params`` then gives the dampers' ``c``), not the bilinear springs.
 
     Returns
     -------
@@ -290,7 +262,7 @@ def simulate_identified(window: MeasuredWindow, params: SpringParameters, *,
         raise InputDataError(f"internal_dt: expected a positive step in s, got {internal_dt}")
     sub = max(1, int(math.ceil(window.dt / internal_dt - 1e-9)))
     sim = simulate(window.geometry, params, np.asarray(window.ag), window.dt,
-                   dt=window.dt / sub, output_dt=window.dt, takeda=takeda)
+                   dt=window.dt / sub, output_dt=window.dt)
     short = window.t.size - sim.t.size  # rounding of the step may drop the last sample
     if short > 0:
         pad = lambda arr: np.pad(arr, [(0, short)] + [(0, 0)] * (arr.ndim - 1), mode="edge")
@@ -321,8 +293,7 @@ def _systematic_share(residual: np.ndarray, measured: np.ndarray, dt: float) -> 
 
 
 def model_misfit(window: MeasuredWindow, params: SpringParameters,
-                 limits: MisfitLimits | None = None,
-                 takeda: tuple[TakedaParameters, ...] | None = None) -> ModelMisfit:
+                 limits: MisfitLimits | None = None) -> ModelMisfit:
     """Compare the identified model's simulation with the measured responses.
 
     Parameters
@@ -332,9 +303,6 @@ def model_misfit(window: MeasuredWindow, params: SpringParameters,
     params : SpringParameters
         The identified parameters (the point estimate).
     limits : MisfitLimits, optional
-    takeda : tuple of TakedaParameters, optional
-        The identified modified-Takeda springs where that family was chosen
-        (:func:`takeda_springs`): the model simulated is theirs.
 
     Returns
     -------
@@ -343,7 +311,7 @@ def model_misfit(window: MeasuredWindow, params: SpringParameters,
     """
     lim = limits or MisfitLimits()
     try:
-        sim = simulate_identified(window, params, internal_dt=lim.internal_dt, takeda=takeda)
+        sim = simulate_identified(window, params, internal_dt=lim.internal_dt)
     except (InputDataError, SolverError) as err:
         return ModelMisfit(entries=(), kind="model",
                            reasons=(f"model misfit: the identified model cannot be simulated "
@@ -525,8 +493,7 @@ class SelfCheck:
 
 
 def self_check(window: MeasuredWindow, params: SpringParameters, theta: np.ndarray,
-               a_rel: np.ndarray, limits: MisfitLimits | None = None,
-               family: dict | None = None) -> SelfCheck:
+               a_rel: np.ndarray, limits: MisfitLimits | None = None) -> SelfCheck:
     """Run the output-error check and the energy indices of one identification.
 
     Parameters
@@ -540,21 +507,12 @@ def self_check(window: MeasuredWindow, params: SpringParameters, theta: np.ndarr
     a_rel : ndarray, shape (T, N)
         Relative accelerations the identification reproduces, m/s²; the measured ones are
         used where ``window.coverage.acceleration``.
-    family : dict, optional
-        The spring family chosen (``IdentificationResult.family``): where it is the
-        modified Takeda, its springs and dampers are what the output-error check simulates
-        (:func:`takeda_springs`), not the bilinear fit beside them.
 
     Returns
     -------
     SelfCheck
     """
-    springs = takeda_springs(family, window.n_levels)
-    if springs is not None:
-        takeda, c = springs
-        misfit = model_misfit(window, replace(params, c=c), limits, takeda=takeda)
-    else:
-        misfit = model_misfit(window, params, limits)
+    misfit = model_misfit(window, params, limits)
     a = np.where(window.coverage.acceleration, window.a, np.asarray(a_rel, dtype=float))
     try:
         energy = energy_indices(window, params, theta, a)

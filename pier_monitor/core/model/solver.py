@@ -21,14 +21,10 @@ import numpy as np
 from pier_monitor.core.model.config import PierGeometry, SpringParameters
 from pier_monitor.core.errors import InputDataError, SolverError
 from pier_monitor.core.model.link_model import angle_matrix, damping_matrix
-from pier_monitor.core.model.springs import TakedaParameters, _takeda_init, _takeda_step
 
 from pier_monitor.core._jit import HAVE_NUMBA, jit as _jit
 
-__all__ = ["Response", "simulate", "takeda_stable_step", "HAVE_NUMBA"]
-
-#: Most explicit steps :func:`simulate` takes for Takeda springs (about a second of CPU).
-_MAX_EXPLICIT_STEPS = 20_000_000
+__all__ = ["Response", "simulate", "HAVE_NUMBA"]
 
 
 @dataclass(frozen=True)
@@ -166,73 +162,6 @@ def _newmark_kernel(m, b, cmat, k1, k2, s, ag, dt, out_every, x0, v0, max_iter,
     return worst
 
 
-@_jit
-def _takeda_explicit_kernel(m, b, cmat, p, ag, dt, out_every,
-                            out_x, out_v, out_a, out_th, out_f):  # pragma: no cover - compiled
-    # velocity Verlet from rest with modified-Takeda springs (p: (N, 8) rows of
-    # TakedaParameters.as_array()), the dampers' velocity predicted from the step's start:
-    # no iteration, so a corner or jump of the rule within a step is taken as it comes
-    n = m.shape[0]
-    n_steps = ag.shape[0]
-    bt = b.T.copy()
-    st = np.empty((n, 9))
-    for i in range(n):
-        s0 = _takeda_init(p[i])
-        for k in range(9):
-            st[i, k] = s0[k]
-    x = np.zeros(n)
-    v = np.zeros(n)
-    f = np.zeros(n)
-    th = np.zeros(n)
-    a = -ag[0] * np.ones(n)
-    out_x[0] = x
-    out_v[0] = v
-    out_a[0] = a
-    out_th[0] = th
-    out_f[0] = f
-    for step in range(1, n_steps):
-        v_half = v + 0.5 * dt * a
-        x = x + dt * v_half
-        th = b @ x
-        for i in range(n):
-            si = (st[i, 0], st[i, 1], st[i, 2], st[i, 3], st[i, 4], st[i, 5], st[i, 6],
-                  st[i, 7], st[i, 8])
-            s1 = _takeda_step(p[i], si, th[i])
-            for k in range(9):
-                st[i, k] = s1[k]
-            f[i] = s1[5]
-        a_new = (-m * ag[step] - cmat @ (v + dt * a) - bt @ f) / m
-        v = v_half + 0.5 * dt * a_new
-        a = a_new
-        if step % out_every == 0:
-            k = step // out_every
-            out_x[k] = x
-            out_v[k] = v
-            out_a[k] = a
-            out_th[k] = th
-            out_f[k] = f
-    return 0
-
-
-def takeda_stable_step(geometry: PierGeometry, takeda: tuple[TakedaParameters, ...],
-                       c: np.ndarray) -> float:
-    """Half the largest stable step of :func:`simulate`'s explicit integration of Takeda
-    springs, s: ``(2 / ω) (√(1 + ξ²) − ξ)`` with ``ω²`` the largest eigenvalue of
-    ``M⁻¹ Bᵀ (2 k0) B`` (a reloading branch past the pinch point is at most about 1.6 ``k0``
-    steep) and ``ξ`` that of ``M⁻¹ Bᵀ C B`` over ``2 ω``."""
-    b = angle_matrix(geometry.section_heights_m)
-    m = np.asarray(geometry.masses_kg, dtype=float)
-    scale = 1.0 / np.sqrt(m)
-    k0 = np.array([2.0 * t.k0 for t in takeda])
-    kmat = (b.T * k0) @ b
-    w2 = float(np.linalg.eigvalsh(scale[:, None] * kmat * scale[None, :]).max())
-    cm = scale[:, None] * damping_matrix(b, np.asarray(c, dtype=float)) * scale[None, :]
-    lam_c = float(np.linalg.eigvalsh(cm).max())
-    w = np.sqrt(max(w2, 1e-300))
-    xi = max(lam_c, 0.0) / (2.0 * w)
-    return 0.5 * (2.0 / w) * (np.sqrt(1.0 + xi * xi) - xi)
-
-
 def _check_vector(name: str, value: np.ndarray | None, n: int) -> np.ndarray:
     if value is None:
         return np.zeros(n)
@@ -244,8 +173,7 @@ def _check_vector(name: str, value: np.ndarray | None, n: int) -> np.ndarray:
 
 def simulate(geometry: PierGeometry, params: SpringParameters, ag: np.ndarray, ag_dt: float, *,
              dt: float = 0.001, output_dt: float | None = None, x0: np.ndarray | None = None,
-             v0: np.ndarray | None = None, max_iter: int = 30,
-             takeda: tuple[TakedaParameters, ...] | None = None) -> Response:
+             v0: np.ndarray | None = None, max_iter: int = 30) -> Response:
     """Integrate the nonlinear link model under a ground acceleration record.
 
     Parameters
@@ -266,13 +194,6 @@ def simulate(geometry: PierGeometry, params: SpringParameters, ag: np.ndarray, a
         Initial relative displacement (m) and velocity (m/s); default at rest.
     max_iter : int
         Iteration limit per step; exceeding it raises :class:`SolverError`.
-    takeda : tuple of TakedaParameters, optional
-        ``N`` modified-Takeda springs (:class:`~pier_monitor.core.model.springs.
-        TakedaParameters`) in place of the bilinear ones: ``params`` then gives only the
-        dampers' ``c``.  Integrated from rest (``x0``, ``v0`` not accepted) by velocity
-        Verlet (explicit, no iteration: the Takeda rule has corners and, after a partial
-        reversal, jumps that a Newton iteration on the step cycles about) at ``dt`` or
-        :func:`takeda_stable_step`, whichever is smaller, the output step a whole multiple.
 
     Returns
     -------
@@ -304,32 +225,12 @@ def simulate(geometry: PierGeometry, params: SpringParameters, ag: np.ndarray, a
 
     b = angle_matrix(geometry.section_heights_m)
     cmat = damping_matrix(b, params.c)
-    outs = [np.empty((n_out, n)) for _ in range(5)]
-    if takeda is not None:
-        if len(takeda) != n or x0 is not None or v0 is not None:
-            raise InputDataError(f"takeda: expected {n} springs and a start at rest, got "
-                                 f"{len(takeda)} springs")
-        sub = int(np.ceil(dt / min(dt, takeda_stable_step(geometry, takeda, params.c)) - 1e-9))
-        if sub * n_steps > _MAX_EXPLICIT_STEPS:
-            raise SolverError(f"Takeda springs: a stable explicit step of {dt / sub:.3g} s takes "
-                              f"{sub * n_steps} steps (stiff springs or dampers), more than "
-                              f"{_MAX_EXPLICIT_STEPS}")
-        fine = np.interp(np.arange((n_steps - 1) * sub + 1) * (dt / sub), t_fine, ag_fine)
-        p = np.array([t.as_array() for t in takeda], dtype=float)
-        _takeda_explicit_kernel(np.ascontiguousarray(geometry.masses_kg, dtype=float), b, cmat,
-                                p, fine, float(dt / sub), out_every * sub, *outs)
-        return _response(0, max_iter, dt, output_dt, n_out, out_every, ag_fine, outs)
     s = params.fy * (1.0 - params.k2 / params.k1)
+    outs = [np.empty((n_out, n)) for _ in range(5)]
     worst = _newmark_kernel(np.ascontiguousarray(geometry.masses_kg, dtype=float), b, cmat,
                             np.ascontiguousarray(params.k1), np.ascontiguousarray(params.k2), s,
                             ag_fine, float(dt), out_every, _check_vector("x0", x0, n),
                             _check_vector("v0", v0, n), int(max_iter), *outs)
-    return _response(worst, max_iter, dt, output_dt, n_out, out_every, ag_fine, outs)
-
-
-def _response(worst: int, max_iter: int, dt: float, output_dt: float, n_out: int,
-              out_every: int, ag_fine: np.ndarray, outs: list[np.ndarray]) -> Response:
-    """The kernel's outputs as a :class:`Response`, or its failure as a SolverError."""
     if worst < 0:
         raise SolverError(
             f"Newmark iteration did not converge within {max_iter} passes at t = {-worst * dt:.4f} s")
