@@ -670,7 +670,7 @@ def _selfcheck_suite() -> list[dict[str, Any]]:
 RC_HELD_OUT_SEEDS = (302, 303)
 #: Tuning seeds of the RC test-bed: the ``rc_tuning`` suite, the same cases as ``rc`` on the
 #: seeds the RC rules were chosen on (e.g. :data:`~pier_monitor.core.identify.damage.
-#: BILINEAR_MISFIT`'s rule, the Takeda posterior's settings).
+#: BILINEAR_MISFIT`'s rule 8, rule 9 of the same module, the Takeda posterior's settings).
 RC_TUNING_SEEDS = (300, 301)
 
 
