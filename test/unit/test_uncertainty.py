@@ -426,3 +426,17 @@ def test_a_poorly_identified_df_never_makes_a_section_damaged():
     u_high = summarize_members(params, high[:, None], yielded)[0]
     state, reasons = decide_state(2.4, True, u_high)
     assert state == DamageState.DAMAGED and not any("poorly" in r for r in reasons)
+
+
+def test_a_k1_interval_holds_the_fits_own_value() -> None:
+    """The 5th-95th percentile of a few members can leave out the fit (member 0) when it is
+    the most extreme of them: the interval shown is stretched to hold the value shown."""
+    from pier_monitor.core.identify.uncertainty import with_own_k1
+
+    result = ensemble_result("run1", [normal_members(K1, 0.01 * K1)] * 2,
+                             [normal_members(0.8, 0.02)] * 2, [NONE] * 2)
+    own = tuple(s.uncertainty for s in result.sections)
+    low = own[0].k1.lo * 0.999
+    out = with_own_k1(own, np.array([low, K1]))
+    assert out[0].k1.lo == pytest.approx(low) and out[0].k1.hi == own[0].k1.hi
+    assert out[1] == own[1]  # already inside

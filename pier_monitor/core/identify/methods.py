@@ -52,7 +52,8 @@ from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
 from pier_monitor.core.identify.uncertainty import (DF_RESOLUTION, MemberResponses,
                                                     overall_state_probabilities,
                                                     summarize_members, with_c_resolution,
-                                                    with_df_resolution, without_k1_on_bound)
+                                                    with_df_resolution, with_own_k1,
+                                                    without_k1_on_bound)
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import angle_matrix
@@ -861,8 +862,10 @@ def _summarize_draws(d: EnsembleDraws, df_resolution: float
     members (those with finite positive parameters and DFs; ``k2``/``fy`` of a member that
     did not yield are not identified), the DF interval of a yielded section at least
     ``df_resolution`` of the fit's own DF (member 0) either side, every ``c`` interval at
-    least :data:`~pier_monitor.core.identify.uncertainty.C_RESOLUTION` of the fit's own; no
-    ``k1`` interval where the search box ended it (a field fit's ``k1_at_bound``)."""
+    least :data:`~pier_monitor.core.identify.uncertainty.C_RESOLUTION` of the fit's own, every
+    ``k1`` interval holding the fit's own (:func:`~pier_monitor.core.identify.uncertainty.
+    with_own_k1`); no ``k1`` interval where the search box ended it (a field fit's
+    ``k1_at_bound``)."""
     kept = _converged_members(d.params, d.ductility)
     masked = d.params.copy()
     masked[..., 1:3] = np.where(d.yielded[..., None], masked[..., 1:3], np.nan)
@@ -870,6 +873,7 @@ def _summarize_draws(d: EnsembleDraws, df_resolution: float
     # the fit's own DF (member 0), with its resolution that no member shows
     uncertainty = with_df_resolution(uncertainty, d.ductility[0], d.yielded[0], df_resolution)
     uncertainty = with_c_resolution(uncertainty, d.params[0, :, 3])
+    uncertainty = with_own_k1(uncertainty, d.params[0, :, 0])
     uncertainty = without_k1_on_bound(uncertainty, getattr(d, "k1_at_bound", None),
                                       IDENTIFIABILITY_LIMITS["k1"])
     finite = np.isfinite(d.ductility).all(axis=1)  # a draw the spring family did not admit
