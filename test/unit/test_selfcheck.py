@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pier_monitor.core.identify.damage import (MODEL_MISFIT_NOT_DAMAGED, IdentificationResult,
-                                               build_sections)
+                                               build_sections, overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
 from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, MisfitLimits,
                                                   energy_indices, model_misfit,
@@ -37,6 +37,17 @@ def cases() -> list[tuple[MeasuredWindow, SpringParameters, np.ndarray]]:
     windows, _ = ingest_recording(syn.recording)
     assert len(windows) == 2
     return [(w, r.params, r.ductility_factors) for w, r in zip(windows, syn.truth.runs)]
+
+
+@pytest.fixture(scope="module")
+def softer(cases) -> tuple[MeasuredWindow, object]:
+    """Run 2's window as a model 30 % softer with 20 % lower yield moments reproduces it,
+    and the self-check of the true parameters against it (a model misfit)."""
+    window, truth, _ = cases[1]
+    sim = simulate_identified(window, dataclasses.replace(truth, k1=0.7 * truth.k1,
+                                                          fy=0.8 * truth.fy))
+    doctored = dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x)
+    return doctored, model_misfit(doctored, truth)
 
 
 @pytest.mark.parametrize("run", [0, 1])
@@ -74,12 +85,8 @@ def test_an_accelerometer_step_fires_as_a_suspect_sensor(cases, level):
     assert faulty[0].offset > 0.1
 
 
-def test_responses_of_a_softer_model_fire_as_a_model_misfit(cases):
-    window, truth, _ = cases[1]
-    softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
-    sim = simulate_identified(window, softer)
-    doctored = dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x)
-    misfit = model_misfit(doctored, truth)
+def test_responses_of_a_softer_model_fire_as_a_model_misfit(softer):
+    _, misfit = softer
     assert misfit.fires and misfit.kind == "model"
     assert all(r.startswith("model misfit: level ") for r in misfit.reasons)
     # every level misfits, by far more than the allowance
@@ -107,23 +114,31 @@ def test_energy_index_of_a_linear_elastic_pier_is_zero(cases):
     np.testing.assert_allclose(energy, 0.0, atol=0.02)
 
 
-def _intact_result(window: MeasuredWindow, truth: SpringParameters) -> IdentificationResult:
-    """A single identification that found every section intact (DF 0.5)."""
-    theta = np.outer(np.sin(np.linspace(0, 20, window.t.size)), 0.5 * truth.yield_angles)
-    sections = build_sections(window.geometry, truth, theta,
-                              np.zeros(window.n_levels, dtype=bool))
-    assert [s.state for s in sections] == ["intact"] * window.n_levels
+def _result(window: MeasuredWindow, truth: SpringParameters,
+            df: tuple[float, ...] = (0.5, 0.5, 0.5, 0.5), **fields) -> IdentificationResult:
+    """A single identification whose sections reach the DFs ``df`` (yielded above 1) on the
+    true springs; ``fields`` set the result's other fields (e.g. ``family``)."""
+    df = np.asarray(df, dtype=float)
+    theta = np.outer(np.sin(np.linspace(0, 20, window.t.size)), df * truth.yield_angles)
+    sections = build_sections(window.geometry, truth, theta, df > 1.0)
     return IdentificationResult(
         pier_id=window.pier_id, event_id=window.event_id, sections=sections,
-        overall_state="intact", window_start_s=0.0, window_duration_s=window.duration_s,
-        epochs=0, final_loss=float("nan"), wall_time_s=0.0, device="cpu")
+        overall_state=overall_state(sections), window_start_s=0.0,
+        window_duration_s=window.duration_s, epochs=0, final_loss=float("nan"),
+        wall_time_s=0.0, device="cpu", **fields)
 
 
-def test_a_model_misfit_with_a_large_energy_makes_a_section_at_least_suspicious(cases):
+def _intact_result(window: MeasuredWindow, truth: SpringParameters) -> IdentificationResult:
+    """A single identification that found every section intact (DF 0.5)."""
+    result = _result(window, truth)
+    assert [s.state for s in result.sections] == ["intact"] * window.n_levels
+    return result
+
+
+def test_a_model_misfit_with_a_large_energy_makes_a_section_at_least_suspicious(
+        cases, softer):
     window, truth, _ = cases[1]
-    softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
-    sim = simulate_identified(window, softer)
-    misfit = model_misfit(dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x), truth)
+    _, misfit = softer
     energy = np.array([3.0, 0.9 * ENERGY_INDEX_LARGE, 0.1, 0.0])
     evidence = section_evidence(misfit, energy)
     # the base: large energy and its level misfits; section 2 by its level; all by misfit
@@ -141,24 +156,17 @@ def test_a_model_misfit_with_a_large_energy_makes_a_section_at_least_suspicious(
     assert back.model_misfit["kind"] == "model"
 
 
-def test_a_model_misfit_of_bilinear_springs_leaves_their_df_unidentified(cases):
+def test_a_model_misfit_of_bilinear_springs_leaves_their_df_unidentified(cases, softer):
     """Rule 8: the bilinear springs identified do not reproduce the measurements (a model
     misfit), so their k1 and DF are flagged poorly identified and a DF of 2.5 does not make
     the base damaged, only suspicious, with the reason; a Takeda family's DF still does."""
     window, truth, _ = cases[1]
-    softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
-    sim = simulate_identified(window, softer)
-    misfit = model_misfit(dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x), truth)
+    _, misfit = softer
     assert misfit.kind == "model"
-    theta = np.outer(np.sin(np.linspace(0, 20, window.t.size)),
-                     np.array([2.5, 0.5, 0.5, 0.5]) * truth.yield_angles)
-    yielded = np.array([True, False, False, False])
-    sections = build_sections(window.geometry, truth, theta, yielded)
+    own = _result(window, truth, (2.5, 0.5, 0.5, 0.5))
+    sections = own.sections
     assert sections[0].state == "damaged" and sections[0].ductility_factor == pytest.approx(2.5)
-    own = IdentificationResult(
-        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
-        overall_state="damaged", window_start_s=0.0, window_duration_s=window.duration_s,
-        epochs=0, final_loss=float("nan"), wall_time_s=0.0, device="cpu")
+    assert own.overall_state == "damaged"
     energy = np.zeros(4)
     evidence = [()] * 4  # no section-level evidence: rule 8 applies to the pier's springs
     result = own.with_evidence(energy, evidence, misfit.as_dict())
@@ -200,26 +208,18 @@ def _base_uncertainty(df: Spread, p_state: tuple[float, float, float]) -> Sectio
     (None, 1, "suspicious"),           # no interval: nothing shows it clears 1.5
 ])
 def test_under_a_model_misfit_damaged_needs_a_df_interval_clear_of_1_5(
-        cases, df_interval, members, state):
+        cases, softer, df_interval, members, state):
     """Rule 9: a Takeda family that misfits calls a section damaged only on a 90 % DF
     interval at or above 1.5; the members' probabilities follow the states."""
     window, truth, _ = cases[1]
-    softer = dataclasses.replace(truth, k1=0.7 * truth.k1, fy=0.8 * truth.fy)
-    sim = simulate_identified(window, softer)
-    misfit = model_misfit(dataclasses.replace(window, a=sim.a, v=sim.v, x=sim.x), truth)
-    theta = np.outer(np.sin(np.linspace(0, 20, window.t.size)),
-                     np.array([1.73, 0.5, 0.5, 0.5]) * truth.yield_angles)
-    sections = build_sections(window.geometry, truth, theta,
-                              np.array([True, False, False, False]))
+    _, misfit = softer
     p = (0.0, 0.2, 0.8)
+    own = _result(window, truth, (1.73, 0.5, 0.5, 0.5), family={"family": "takeda"},
+                  p_overall_state=p if members > 1 else None)
     if members > 1:
         u = _base_uncertainty(Spread(1.73, 0.2, *df_interval), p)
-        sections = (dataclasses.replace(sections[0], uncertainty=u), *sections[1:])
-    own = IdentificationResult(
-        pier_id=window.pier_id, event_id=window.event_id, sections=sections,
-        overall_state="damaged", window_start_s=0.0, window_duration_s=window.duration_s,
-        epochs=0, final_loss=float("nan"), wall_time_s=0.0, device="cpu",
-        family={"family": "takeda"}, p_overall_state=p if members > 1 else None)
+        own = dataclasses.replace(own, sections=(
+            dataclasses.replace(own.sections[0], uncertainty=u), *own.sections[1:]))
     assert own.sections[0].state == "damaged"
     result = own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict())
     base = result.sections[0]
