@@ -235,6 +235,12 @@ def _may_have_yielded(yielded: bool, uncertainty: SectionUncertainty | None) -> 
             and uncertainty.p_yielded >= P_YIELD_LOW)
 
 
+def _is_model_misfit(model_misfit: dict[str, Any] | None) -> bool:
+    """Whether the self-check's summary (``ModelMisfit.as_dict``) found a misfit of the
+    model (kind ``model``), the condition of rules 8 and 9."""
+    return (model_misfit or {}).get("kind") == "model"
+
+
 def _misfit_says_unidentified(evidence: Sequence[str]) -> bool:
     """Whether ``evidence`` holds rule 8's line (:data:`BILINEAR_MISFIT`): the section's
     ``k1`` and DF are not identified."""
@@ -263,7 +269,7 @@ def _bilinear_misfit(model_misfit: dict[str, Any] | None, family: dict[str, Any]
     ``as_dict``) is the model's and the springs identified are bilinear (``family`` None or
     the bilinear); None otherwise."""
     m = model_misfit or {}
-    if m.get("kind") != "model" or (family or {}).get("family") not in (None, "bilinear"):
+    if not _is_model_misfit(m) or (family or {}).get("family") not in (None, "bilinear"):
         return None
     size = ""
     if m.get("worst_misfit_rel") is not None and m.get("worst_allowed_rel") is not None:
@@ -572,7 +578,7 @@ class SectionResult:
         if u is not None and u.members >= 2 and spread is not None and spread.defined:
             interval = k1_change_interval(own, spread, baseline_k1, baseline_spread)
             lo, hi, scatter = interval.lo_pct, interval.hi_pct, interval.scatter_pct
-            identified = not (baseline_unidentified or _misfit_says_unidentified(self.evidence))
+            identified = not (baseline_unidentified or _k1_unidentified(self))
             if event and identified and k1_loss_beyond_scatter(change_pct, interval):
                 loss = k1_loss_reason(change_pct, interval, baseline_label)
         state, reasons = decide_state(self.ductility_factor, self.yielded, u, k1_loss=loss,
@@ -746,7 +752,7 @@ class IdentificationResult:
     def misfit_is_model(self) -> bool:
         """Whether the self-check found a model misfit (``model_misfit``'s kind ``model``):
         rule 9 of the module applies to every state decided on this result."""
-        return (self.model_misfit or {}).get("kind") == "model"
+        return _is_model_misfit(self.model_misfit)
 
     @property
     def members(self) -> int:
@@ -890,7 +896,7 @@ class IdentificationResult:
                                  f"indices of shape {energy.shape} and {len(evidence)} "
                                  "evidence lists")
         bilinear_misfit = _bilinear_misfit(model_misfit, self.family)
-        misfit = (model_misfit or {}).get("kind") == "model"
+        misfit = _is_model_misfit(model_misfit)
         sections = []
         for s, e, ev in zip(self.sections, energy, evidence):
             ev = tuple(str(r) for r in ev)

@@ -207,8 +207,12 @@ class _TakedaField:
         self.n_eff = max(n_data * pb.weight ** 2 + pb.t_len * pb.disp.size * pb.disp_weight ** 2,
                          2.0)
 
+    def spring(self, q: np.ndarray, i: int) -> np.ndarray:
+        """Spring ``i``'s :class:`TakedaParameters` fields (8,), SI, from its parameters."""
+        return _tak_array(q[i, :7], self.k_ref[i], self.f_ref[i])
+
     def params(self, q: np.ndarray, i: int) -> TakedaParameters:
-        return TakedaParameters(*_tak_array(q[i, :7], self.k_ref[i], self.f_ref[i]))
+        return TakedaParameters(*self.spring(q, i))
 
     def damping(self, q: np.ndarray, i: int) -> float:
         """Spring ``i``'s damper, N·m·s/rad: ``exp`` of its last parameter, at least
@@ -618,8 +622,8 @@ def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2:
             continue
         peak = np.abs(theta).max(axis=0)
         for i in range(n):
-            member = takeda_member(_tak_array(q[i, :7], tf.k_ref[i], tf.f_ref[i]),
-                                   float(peak[i]), tf.damping(q, i), bool(yielded[i]))
+            member = takeda_member(tf.spring(q, i), float(peak[i]), tf.damping(q, i),
+                                   bool(yielded[i]))
             if member is not None:  # else a draw the spring does not admit: dropped
                 params[m, i], df[m, i], drawn_yielded[m, i] = member
     return EnsembleDraws(params=params, ductility=df, yielded=drawn_yielded)
