@@ -8,8 +8,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pier_monitor.core.identify.damage import (MODEL_MISFIT_NOT_DAMAGED, IdentificationResult,
-                                               build_sections, overall_state)
+from pier_monitor.core.errors import InputDataError
+
+from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DAMAGED,
+                                               IdentificationResult, build_sections,
+                                               overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
 from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, MisfitLimits,
                                                   energy_indices, model_misfit,
@@ -252,6 +255,46 @@ def test_without_a_misfit_only_a_large_energy_promotes(cases):
     result = _intact_result(window, truth).with_evidence(energy, evidence, misfit.as_dict())
     assert [s.state for s in result.sections] == ["suspicious", "intact", "intact", "intact"]
     assert result.model_misfit["fires"] is False
+
+
+def test_a_section_whose_fit_ended_at_a_limit_is_suspicious_and_the_others_stand(cases):
+    """Rule 10: a damper at a limit makes its section suspicious (damaged and intact alike),
+    its c and DF not identified, and no evidence of a k1 loss; the other sections keep their
+    states, also when the result is read back and decided again against a baseline."""
+    window, truth, _ = cases[1]
+    clean = model_misfit(window, truth).as_dict()
+    assert clean["fires"] is False
+    own = _result(window, truth, df=(3.0, 1.8, 0.5, 0.5))
+    assert [s.state for s in own.sections] == ["damaged", "damaged", "intact", "intact"]
+    # the base and the top from an ensemble (k1 known to ±1.7 %), the others single
+    sec = list(own.sections)
+    for i, df, p in ((0, Spread(3.0, 0.1, 2.85, 3.15), (0.0, 0.0, 1.0)),
+                     (3, Spread(0.5, 0.01, 0.48, 0.52), (1.0, 0.0, 0.0))):
+        k1 = float(truth.k1[i])
+        sec[i] = dataclasses.replace(sec[i], uncertainty=dataclasses.replace(
+            _base_uncertainty(df, p), k1=Spread(k1, 0.01 * k1, 0.983 * k1, 1.017 * k1),
+            p_yielded=float(i == 0)))
+    own = dataclasses.replace(own, sections=tuple(sec))
+    limits = [["section 1: c = 1e+03 N·m·s/rad is near zero (4e-05 of the reference 2.5e+07)"],
+              [], ["section 3: c = 6.5e+09 N·m·s/rad is 451 times the reference 1.44e+07"], []]
+    result = own.with_evidence(np.zeros(4), [()] * 4, clean, fit_limits=limits)
+    assert [s.state for s in result.sections] == ["suspicious", "damaged", "suspicious", "intact"]
+    assert result.overall_state == "damaged" and not result.unreliable_reasons
+    base, third = result.sections[0], result.sections[2]
+    assert base.poorly_identified == ("c", "DF") and third.poorly_identified == ("c", "DF")
+    assert base.evidence == (f"{FIT_AT_LIMIT}: {limits[0][0]}: its DF is not identified",)
+    assert base.reasons[-2] == ("DF not identified (the section's fit ended at a limit): not "
+                                "called damaged on it")
+    # read back and decided again against a k1 baseline 40 % stiffer: the rule stays, and the
+    # base's k1 (its fit at a limit) is no evidence of a loss
+    rebased = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
+        truth.k1 / 0.6, "an earlier event", event=True)
+    assert [s.state for s in rebased.sections] == ["suspicious", "damaged", "suspicious",
+                                                   "suspicious"]
+    assert rebased.sections[3].reasons[-1].endswith("cracking")  # its k1 loss
+    assert not any(r.endswith("cracking") for r in rebased.sections[0].reasons)
+    with pytest.raises(InputDataError, match="3 fit-limit lists"):
+        own.with_evidence(np.zeros(4), [()] * 4, clean, fit_limits=limits[:3])
 
 
 def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(
