@@ -333,3 +333,30 @@ def test_in_a_sparse_layout_a_section_answers_to_the_next_measured_level_up():
     # sections 1-2 carry level 2's motion, 3-4 level 4's, 5-6 level 6's
     assert [bool(ev) for ev in evidence] == [True, True, False, False, True, True]
     assert "level 2's acceleration by 90% RMS" in evidence[0][0]
+
+
+def test_a_misfit_that_follows_another_levels_response_is_the_models_noise_a_sensors(cases):
+    """The systematic share reads the whole pier's response: a residual at one level made of
+    another level's motion (how higher modes ring under another damping) follows the
+    response, white noise on one accelerometer does not."""
+    window, truth, _ = cases[1]
+    a = np.array(window.a)
+    clean = {e.level: e.systematic for e in model_misfit(window, truth).entries
+             if e.quantity == "acceleration"}
+    # level 1 plus the part of level 4's motion that level 1's does not hold
+    other = a[:, 3] - a[:, 0] * (a[:, 3] @ a[:, 0]) / (a[:, 0] @ a[:, 0])
+    mixed = a.copy()
+    mixed[:, 0] += 0.6 * other * np.sqrt(np.mean(a[:, 0] ** 2) / np.mean(other ** 2))
+    entry = [e for e in model_misfit(dataclasses.replace(window, a=mixed), truth).entries
+             if e.level == 1 and e.quantity == "acceleration"][0]
+    assert entry.misfit > 3 * [e.misfit for e in model_misfit(window, truth).entries
+                               if e.level == 1][0]
+    assert entry.systematic > 0.9 > MisfitLimits().systematic
+    noisy = a.copy()
+    noisy[:, 1] += (0.8 * np.sqrt(np.mean(a[:, 1] ** 2))
+                    * np.random.default_rng(0).standard_normal(a.shape[0]))
+    misfit = model_misfit(dataclasses.replace(window, a=noisy), truth)
+    entry = [e for e in misfit.entries if e.level == 2 and e.quantity == "acceleration"][0]
+    assert entry.exceeded and entry.systematic < 0.1
+    assert misfit.kind == "sensor" and misfit.reasons[0].startswith("suspect sensor at level 2: ")
+    assert min(clean.values()) > 0.5  # the sensors' gain and azimuth errors follow the response

@@ -159,7 +159,7 @@ def section_fit_limits(params: SpringParameters, window: MeasuredWindow,
     spring and damper answer its own moment (the equation-error fit) or its own angle
     (the field reconstruction).  :func:`pier_monitor.events.identify_window` makes such a
     section suspicious, never intact or damaged, and leaves the others to their states.
-    On the RC test-bed's held-out seeds (302-303) 20 of the 25 unreliable events were so:
+    On the RC test-bed's held-out seeds (302-303) 19 of the 25 unreliable events were only so:
     one elastic upper section's damper at 4e-9-0.009 or 115-668 times its reference, or
     the ``k2`` of a section barely past yield at its cap, while the base's DF was within
     2-6 % of the truth in the bilinear and modified-Takeda cases.
