@@ -15,7 +15,7 @@ from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DA
                                                overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
 from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, MisfitLimits,
-                                                  energy_indices, model_misfit,
+                                                  energy_indices, judge_misfit, model_misfit,
                                                   section_evidence, simulate_identified)
 from pier_monitor.core.ingest import ingest_recording
 from pier_monitor.core.ingest.window import MeasuredWindow
@@ -322,7 +322,7 @@ def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unrelia
 
 
 def test_in_a_sparse_layout_a_section_answers_to_the_next_measured_level_up():
-    from pier_monitor.core.identify.selfcheck import MisfitEntry, judge_misfit
+    from pier_monitor.core.identify.selfcheck import MisfitEntry
     limits = MisfitLimits()
     entries = [MisfitEntry(2, "acceleration", 0.9, 0.0, 0.5, 0.01, 0.01),
                MisfitEntry(4, "acceleration", 0.1, 0.0, 0.5, 0.01, 0.01),
@@ -358,5 +358,11 @@ def test_a_misfit_that_follows_another_levels_response_is_the_models_noise_a_sen
     misfit = model_misfit(dataclasses.replace(window, a=noisy), truth)
     entry = [e for e in misfit.entries if e.level == 2 and e.quantity == "acceleration"][0]
     assert entry.exceeded and entry.systematic < 0.1
-    assert misfit.kind == "sensor" and misfit.reasons[0].startswith("suspect sensor at level 2: ")
     assert min(clean.values()) > 0.5  # the sensors' gain and azimuth errors follow the response
+    # judged on the share alone (white noise also leaves a moving mean above offset_rel),
+    # and with fewer levels measured than sensor_min_levels: then the model's
+    shares = [dataclasses.replace(e, offset=0.0) for e in misfit.entries]
+    one = judge_misfit(shares, MisfitLimits())
+    assert one.kind == "sensor" and one.reasons[0].startswith("suspect sensor at level 2: ")
+    few = judge_misfit(shares, MisfitLimits(sensor_min_levels=5))
+    assert few.kind == "model" and few.reasons[0].startswith("model misfit: level 2: ")
