@@ -88,8 +88,9 @@ def _checked_params(result: IdentificationResult, window: MeasuredWindow) -> Spr
     the fit's ``k2`` may sit anywhere, at its bound too, and that says nothing of the
     identification (the field reconstruction reports the design's there already).  On the
     RC test-bed's ``just_yield`` shaking (E-Defense pier, full layout, seed 302) the upper
-    section's ``k2`` sat at its bound ``0.5 k1`` while the section stayed elastic, and made
-    the whole event unreliable, and with it no baseline for the next event."""
+    section's ``k2`` sat at its bound ``0.5 k1`` while the section stayed elastic; judged as
+    a fit at a limit it would make that section suspicious (rule 10 of
+    :mod:`~pier_monitor.core.identify.damage`) for a parameter it never had."""
     p = result.params
     elastic = np.array([not s.k2_identifiable for s in result.sections])
     k2 = np.where(elastic, np.minimum(window.design.k2, p.k2), p.k2)  # never above the fit's
