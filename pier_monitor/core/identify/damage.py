@@ -260,9 +260,10 @@ def _evidence_says_unidentified(evidence: Sequence[str]) -> bool:
 
 def _k1_unidentified(section: SectionResult) -> bool:
     """Whether ``section``'s ``k1`` is no reference for a ``k1`` loss: rule 8 or 10 says it
-    (or its fit) is not identified, or its ensemble left it without an interval (a ``k1`` the search box ended,
-    :func:`~pier_monitor.core.identify.uncertainty.without_k1_on_bound`); taken as exact it
-    would turn its error into a loss beyond the scatter."""
+    (or its fit) is not identified, or its ensemble left it without an interval (a ``k1``
+    the search box ended, :func:`~pier_monitor.core.identify.uncertainty.
+    without_k1_on_bound`); taken as exact it would turn its error into a loss beyond the
+    scatter."""
     u = section.uncertainty
     return _evidence_says_unidentified(section.evidence) or (
         u is not None and u.members >= 2 and not u.k1.defined)

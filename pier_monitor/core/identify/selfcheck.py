@@ -45,9 +45,9 @@ Per level and quantity it gives (:class:`MisfitEntry`):
     read as a sensor fault in 5 runs; with every level's response the 2 runs of the
     accelerometer layout read as the model's misfit.  On the three-level layout (two
     levels with accelerometers besides the foundation) it read 7 runs' misfit at one level
-    as a sensor's: each level answers for its own sections there, so a
-    model's error stays at one level, and such a misfit is the model's
-    (``sensor_min_levels``); an offset is a sensor's in every layout.
+    as a sensor's: each level answers for its own sections there, so a model's error stays
+    at one level, and such a misfit is the model's (``sensor_min_levels``); an offset is a
+    sensor's in every layout.
 
 and, for accelerations, ``offset``: the RMS of the residual's moving mean over
 ``limits.offset_span_s`` (4 s, several periods of the pier) relative to ``rms(meas)``.  A
