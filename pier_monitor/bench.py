@@ -33,7 +33,7 @@ from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, ENERGY_IND
                                                   MisfitEntry, MisfitLimits, ModelMisfit,
                                                   energy_indices, judge_misfit, model_misfit,
                                                   section_evidence)
-from pier_monitor.core.identify.states import classify_ductility
+from pier_monitor.core.identify.states import DAMAGED_DF, classify_ductility
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.config import PierConfig, SpringParameters, load_config
 from pier_monitor.core.model.ground_motion import GroundMotion, el_centro_1940, synthetic_near_fault
@@ -457,7 +457,13 @@ def _selfcheck_entry(run: IdentificationRun, window: MeasuredWindow, theta_true:
     out = {**info, "wall_s": run.result.wall_time_s, "device": run.result.device,
            "misfit": misfit.as_dict(), "energy_index": [float(v) for v in energy],
            "df": [float(v) for v in run.result.ductility_factors],
-           "states": [s.state for s in run.result.sections]}
+           "states": [s.state for s in run.result.sections],
+           "family": (run.result.family or {}).get("family"),
+           # the lower end of each section's 90 % DF interval (None: no interval), which
+           # rule 9 reads under a model misfit
+           "df_lo": [None if s.uncertainty is None or s.uncertainty.members < 2
+                     or not s.uncertainty.ductility_factor.defined
+                     else float(s.uncertainty.ductility_factor.lo) for s in run.result.sections]}
     if truth is not None:
         out["true_df"] = [float(v) for v in np.abs(theta_true).max(axis=0)
                           / truth.yield_angles]
@@ -552,8 +558,10 @@ def _judged(run: dict[str, Any], limits: MisfitLimits) -> str:
 
 def _checked_states(run: dict[str, Any], limits: MisfitLimits) -> list[str]:
     """The states of a run after its self-check under ``limits`` (``identify_window``'s
-    rule): every section unreliable for a sensor's misfit, else at least suspicious where
-    the evidence says so."""
+    rules): every section unreliable for a sensor's misfit, else at least suspicious where
+    the evidence says so, and under a model misfit damaged only on a DF interval clear of
+    1.5 of springs other than the bilinear (rules 8 and 9 of
+    :mod:`~pier_monitor.core.identify.damage`; rule 10 is not modelled)."""
     kind = _judged(run, limits)
     if kind == "sensor":
         return ["unreliable"] * len(run["states"])
@@ -565,8 +573,14 @@ def _checked_states(run: dict[str, Any], limits: MisfitLimits) -> list[str]:
                           reasons=tuple(run["misfit"]["reasons"])))
     evidence = section_evidence(misfit, np.array([_nan_none(e) for e in run["energy_index"]]))
     order = ["intact", "suspicious", "damaged"]
-    return [max(st, "suspicious", key=order.index) if ev and st in order else st
-            for st, ev in zip(run["states"], evidence)]
+    states = [max(st, "suspicious", key=order.index) if ev and st in order else st
+              for st, ev in zip(run["states"], evidence)]
+    if misfit.kind == "model":
+        bilinear = run.get("family") in (None, "bilinear")
+        lows = run.get("df_lo") or [None] * len(states)
+        states = ["suspicious" if st == "damaged" and (bilinear or lo is None or lo < DAMAGED_DF)
+                  else st for st, lo in zip(states, lows)]
+    return states
 
 
 def _state_counts(runs: list[dict[str, Any]], checked: list[list[str]]) -> dict[str, Any]:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pier_monitor.core.identify.checks import check_identification
+from pier_monitor.core.identify.checks import check_identification, section_fit_limits
 from pier_monitor.core.identify.damage import IdentificationResult
 from pier_monitor.core.identify.selfcheck import self_check
 from pier_monitor.core.ingest.settings import EventIngest
@@ -88,8 +88,9 @@ def _checked_params(result: IdentificationResult, window: MeasuredWindow) -> Spr
     the fit's ``k2`` may sit anywhere, at its bound too, and that says nothing of the
     identification (the field reconstruction reports the design's there already).  On the
     RC test-bed's ``just_yield`` shaking (E-Defense pier, full layout, seed 302) the upper
-    section's ``k2`` sat at its bound ``0.5 k1`` while the section stayed elastic, and made
-    the whole event unreliable, and with it no baseline for the next event."""
+    section's ``k2`` sat at its bound ``0.5 k1`` while the section stayed elastic; judged as
+    a fit at a limit it would make that section suspicious (rule 10 of
+    :mod:`~pier_monitor.core.identify.damage`) for a parameter it never had."""
     p = result.params
     elastic = np.array([not s.k2_identifiable for s in result.sections])
     k2 = np.where(elastic, np.minimum(window.design.k2, p.k2), p.k2)  # never above the fit's
@@ -109,6 +110,11 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     4. The result checks itself
        (:func:`~pier_monitor.core.identify.checks.check_identification`): any reason makes
        it *unreliable* — every state ``unreliable``, never intact, suspicious or damaged.
+       A section whose fit ended at a limit (its damper near zero or far above its
+       reference, its ``k2`` at its cap: :func:`~pier_monitor.core.identify.checks.
+       section_fit_limits`) is that section's: it is suspicious, its ``c`` (``k2``) and DF
+       not identified, and the other sections keep their states (rule 10 of
+       :mod:`~pier_monitor.core.identify.damage`).
        The identified model is simulated under the measured foundation motion and compared
        with the measured responses (:func:`~pier_monitor.core.identify.selfcheck.self_check`):
        a misfit at one level that the response does not explain (a sensor's) makes the
@@ -166,15 +172,16 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
             f"identification failed: {type(err).__name__}: {err}"))
         return EventOutcome(window=window, result=failed, out_dir=out_dir,
                             window_file=window_file, paths=None)
-    reasons = check_identification(_checked_params(run.result, window), run.reproduced,
-                                   window)
+    checked = _checked_params(run.result, window)
+    reasons = check_identification(checked, run.reproduced, window, sections_apart=True)
     check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a)
     reasons = [*reasons, *check.unreliable_reasons]
     result = run.result
     if baseline is not None and not reasons:  # an unreliable result's DF is no diagnosis
         result = result.with_cumulative_ductility(baseline, store.peak_rotations_before(window))
-    run = replace(run, result=result.with_evidence(check.energy_index, check.evidence,
-                                                   check.misfit.as_dict()))
+    run = replace(run, result=result.with_evidence(
+        check.energy_index, check.evidence, check.misfit.as_dict(),
+        fit_limits=section_fit_limits(checked, window)))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.identify.checks import CheckLimits, check_identification
+from pier_monitor.core.identify.checks import (CheckLimits, check_identification,
+                                               section_fit_limits)
 from pier_monitor.core.identify.equation_error import fit_equation_error
 from pier_monitor.core.ingest import ingest_recording
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
@@ -97,6 +98,28 @@ def test_parameters_at_bounds_or_implausible_are_named(windows):
     assert "section 4: ductility factor" in text and "is implausible (above 20)" in text
     assert check_identification(odd, reproduced, w, CheckLimits(
         k1_ratio=(1e-4, 100.0), c_ratio=(1e-20, 1e4), k2_cap=1.0, max_df=1e9)) == []
+
+
+def test_a_damper_or_k2_at_its_limit_is_its_sections_own(windows):
+    """A ``c`` out of range or a ``k2`` at its cap is returned per section, and with
+    ``sections_apart`` left out of the whole event's reasons; ``k1`` and DF stay there."""
+    w = windows[0]
+    params, reproduced = identified(w)
+    d = w.design
+    odd = SpringParameters(k1=d.k1 * np.array([1e-3, 1.0, 1.0, 1.0]), k2=d.k1 * np.array(
+        [1e-4, 0.5, 0.1, 0.1]), fy=d.fy, c=d.c * np.array([1.0, 1e-16, 1.0, 1e3]))
+    local = section_fit_limits(odd, w)
+    assert [len(r) for r in local] == [0, 2, 0, 1]
+    assert local[1][0].startswith("section 2: k2 = ") and "sits at its bound 0.5 k1" in local[1][0]
+    assert local[1][1].startswith("section 2: c = 1.2e-09 N·m·s/rad is near zero")
+    assert local[3][0].startswith("section 4: c = ")
+    assert "is 1e+03 times the reference" in local[3][0]
+    whole = check_identification(odd, reproduced, w, sections_apart=True)
+    assert [r.split(":")[0] for r in whole] == ["section 1"]
+    assert "k1 = " in whole[0] and "is near zero (0.001 of the design" in whole[0]
+    everything = check_identification(odd, reproduced, w)
+    assert set(everything) == set(whole) | {r for sec in local for r in sec}
+    assert section_fit_limits(params, w) == [[], [], [], []]
 
 
 def test_mismatched_shapes_are_an_input_data_error(windows):

@@ -8,11 +8,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pier_monitor.core.identify.damage import (MODEL_MISFIT_NOT_DAMAGED, IdentificationResult,
-                                               build_sections, overall_state)
+from pier_monitor.core.errors import InputDataError
+
+from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DAMAGED,
+                                               IdentificationResult, build_sections,
+                                               overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
 from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, MisfitLimits,
-                                                  energy_indices, model_misfit,
+                                                  energy_indices, judge_misfit, model_misfit,
                                                   section_evidence, simulate_identified)
 from pier_monitor.core.ingest import ingest_recording
 from pier_monitor.core.ingest.window import MeasuredWindow
@@ -254,6 +257,46 @@ def test_without_a_misfit_only_a_large_energy_promotes(cases):
     assert result.model_misfit["fires"] is False
 
 
+def test_a_section_whose_fit_ended_at_a_limit_is_suspicious_and_the_others_stand(cases):
+    """Rule 10: a damper at a limit makes its section suspicious (damaged and intact alike),
+    its c and DF not identified, and no evidence of a k1 loss; the other sections keep their
+    states, also when the result is read back and decided again against a baseline."""
+    window, truth, _ = cases[1]
+    clean = model_misfit(window, truth).as_dict()
+    assert clean["fires"] is False
+    own = _result(window, truth, df=(3.0, 1.8, 0.5, 0.5))
+    assert [s.state for s in own.sections] == ["damaged", "damaged", "intact", "intact"]
+    # the base and the top from an ensemble (k1 known to ±1.7 %), the others single
+    sec = list(own.sections)
+    for i, df, p in ((0, Spread(3.0, 0.1, 2.85, 3.15), (0.0, 0.0, 1.0)),
+                     (3, Spread(0.5, 0.01, 0.48, 0.52), (1.0, 0.0, 0.0))):
+        k1 = float(truth.k1[i])
+        sec[i] = dataclasses.replace(sec[i], uncertainty=dataclasses.replace(
+            _base_uncertainty(df, p), k1=Spread(k1, 0.01 * k1, 0.983 * k1, 1.017 * k1),
+            p_yielded=float(i == 0)))
+    own = dataclasses.replace(own, sections=tuple(sec))
+    limits = [["section 1: c = 1e+03 N·m·s/rad is near zero (4e-05 of the reference 2.5e+07)"],
+              [], ["section 3: c = 6.5e+09 N·m·s/rad is 451 times the reference 1.44e+07"], []]
+    result = own.with_evidence(np.zeros(4), [()] * 4, clean, fit_limits=limits)
+    assert [s.state for s in result.sections] == ["suspicious", "damaged", "suspicious", "intact"]
+    assert result.overall_state == "damaged" and not result.unreliable_reasons
+    base, third = result.sections[0], result.sections[2]
+    assert base.poorly_identified == ("c", "DF") and third.poorly_identified == ("c", "DF")
+    assert base.evidence == (f"{FIT_AT_LIMIT}: {limits[0][0]}: its DF is not identified",)
+    assert base.reasons[-2] == ("DF not identified (the section's fit ended at a limit): not "
+                                "called damaged on it")
+    # read back and decided again against a k1 baseline 40 % stiffer: the rule stays, and the
+    # base's k1 (its fit at a limit) is no evidence of a loss
+    rebased = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
+        truth.k1 / 0.6, "an earlier event", event=True)
+    assert [s.state for s in rebased.sections] == ["suspicious", "damaged", "suspicious",
+                                                   "suspicious"]
+    assert rebased.sections[3].reasons[-1].endswith("cracking")  # its k1 loss
+    assert not any(r.endswith("cracking") for r in rebased.sections[0].reasons)
+    with pytest.raises(InputDataError, match="3 fit-limit lists"):
+        own.with_evidence(np.zeros(4), [()] * 4, clean, fit_limits=limits[:3])
+
+
 def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(
         cases, tmp_path):
     window, _, df_true = cases[1]
@@ -279,7 +322,7 @@ def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unrelia
 
 
 def test_in_a_sparse_layout_a_section_answers_to_the_next_measured_level_up():
-    from pier_monitor.core.identify.selfcheck import MisfitEntry, judge_misfit
+    from pier_monitor.core.identify.selfcheck import MisfitEntry
     limits = MisfitLimits()
     entries = [MisfitEntry(2, "acceleration", 0.9, 0.0, 0.5, 0.01, 0.01),
                MisfitEntry(4, "acceleration", 0.1, 0.0, 0.5, 0.01, 0.01),
@@ -290,3 +333,36 @@ def test_in_a_sparse_layout_a_section_answers_to_the_next_measured_level_up():
     # sections 1-2 carry level 2's motion, 3-4 level 4's, 5-6 level 6's
     assert [bool(ev) for ev in evidence] == [True, True, False, False, True, True]
     assert "level 2's acceleration by 90% RMS" in evidence[0][0]
+
+
+def test_a_misfit_that_follows_another_levels_response_is_the_models_noise_a_sensors(cases):
+    """The systematic share reads the whole pier's response: a residual at one level made of
+    another level's motion (how higher modes ring under another damping) follows the
+    response, white noise on one accelerometer does not."""
+    window, truth, _ = cases[1]
+    a = np.array(window.a)
+    clean = {e.level: e.systematic for e in model_misfit(window, truth).entries
+             if e.quantity == "acceleration"}
+    # level 1 plus the part of level 4's motion that level 1's does not hold
+    other = a[:, 3] - a[:, 0] * (a[:, 3] @ a[:, 0]) / (a[:, 0] @ a[:, 0])
+    mixed = a.copy()
+    mixed[:, 0] += 0.6 * other * np.sqrt(np.mean(a[:, 0] ** 2) / np.mean(other ** 2))
+    entry = [e for e in model_misfit(dataclasses.replace(window, a=mixed), truth).entries
+             if e.level == 1 and e.quantity == "acceleration"][0]
+    assert entry.misfit > 3 * [e.misfit for e in model_misfit(window, truth).entries
+                               if e.level == 1][0]
+    assert entry.systematic > 0.9 > MisfitLimits().systematic
+    noisy = a.copy()
+    noisy[:, 1] += (0.8 * np.sqrt(np.mean(a[:, 1] ** 2))
+                    * np.random.default_rng(0).standard_normal(a.shape[0]))
+    misfit = model_misfit(dataclasses.replace(window, a=noisy), truth)
+    entry = [e for e in misfit.entries if e.level == 2 and e.quantity == "acceleration"][0]
+    assert entry.exceeded and entry.systematic < 0.1
+    assert min(clean.values()) > 0.5  # the sensors' gain and azimuth errors follow the response
+    # judged on the share alone (white noise also leaves a moving mean above offset_rel),
+    # and with fewer levels measured than sensor_min_levels: then the model's
+    shares = [dataclasses.replace(e, offset=0.0) for e in misfit.entries]
+    one = judge_misfit(shares, MisfitLimits())
+    assert one.kind == "sensor" and one.reasons[0].startswith("suspect sensor at level 2: ")
+    few = judge_misfit(shares, MisfitLimits(sensor_min_levels=5))
+    assert few.kind == "model" and few.reasons[0].startswith("model misfit: level 2: ")

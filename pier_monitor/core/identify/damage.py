@@ -59,6 +59,12 @@ applies with or without an ensemble, and only raises a state
    the modified-Takeda springs followed the base, not the displacement errors of 2-3 % at
    levels 3-4.  A ``k1`` that rule 8 says is not identified, here or in the baseline, is no
    evidence of a ``k1`` loss either (rule 4 does not apply to it).
+10. a section whose fit ended at a limit (:func:`~pier_monitor.core.identify.checks.
+    section_fit_limits`: its damper near zero or far above its reference, its ``k2`` at its
+    cap) has its ``c`` (or ``k2``) and DF not identified: it is suspicious, never intact
+    or damaged, with the reason :data:`FIT_AT_LIMIT` (evidence, kept as rule 8's is), and
+    its ``k1`` is no evidence of a loss; the other sections keep their states.  Before, such
+    a section made the whole event unreliable, and with it no baseline for the next.
 """
 
 from __future__ import annotations
@@ -85,6 +91,7 @@ from .uncertainty import K1ChangeInterval, SectionUncertainty, Spread, k1_change
 __all__ = [
     "BILINEAR_MISFIT",
     "MODEL_MISFIT_NOT_DAMAGED",
+    "FIT_AT_LIMIT",
     "DAMAGED_DF",
     "P_YIELD_LOW",
     "SUSPICIOUS_DF",
@@ -152,6 +159,10 @@ BILINEAR_MISFIT = "bilinear springs misfit"
 #: The start of rule 9's reason: a section called damaged on a model that misfits, whose DF
 #: interval does not clear 1.5.
 MODEL_MISFIT_NOT_DAMAGED = "model misfit, DF not clear of damaged"
+
+#: The start of rule 10's evidence: a section whose fit ended at a limit (its damper near
+#: zero or far above its reference, its ``k2`` at its cap); its DF is not identified.
+FIT_AT_LIMIT = "fit at a limit"
 
 #: A section is reported "not yielded" only while the probability that its spring yielded
 #: (the share of the ensemble's members) is below this.
@@ -241,19 +252,20 @@ def _is_model_misfit(model_misfit: dict[str, Any] | None) -> bool:
     return (model_misfit or {}).get("kind") == "model"
 
 
-def _misfit_says_unidentified(evidence: Sequence[str]) -> bool:
-    """Whether ``evidence`` holds rule 8's line (:data:`BILINEAR_MISFIT`): the section's
-    ``k1`` and DF are not identified."""
-    return any(e.startswith(BILINEAR_MISFIT) for e in evidence)
+def _evidence_says_unidentified(evidence: Sequence[str]) -> bool:
+    """Whether ``evidence`` holds rule 8's line (:data:`BILINEAR_MISFIT`: the section's
+    ``k1`` and DF are not identified) or rule 10's (:data:`FIT_AT_LIMIT`: its DF is not)."""
+    return any(e.startswith((BILINEAR_MISFIT, FIT_AT_LIMIT)) for e in evidence)
 
 
 def _k1_unidentified(section: SectionResult) -> bool:
-    """Whether ``section``'s ``k1`` is no reference for a ``k1`` loss: rule 8 says it is not
-    identified, or its ensemble left it without an interval (a ``k1`` the search box ended,
-    :func:`~pier_monitor.core.identify.uncertainty.without_k1_on_bound`); taken as exact it
-    would turn its error into a loss beyond the scatter."""
+    """Whether ``section``'s ``k1`` is no reference for a ``k1`` loss: rule 8 or 10 says it
+    (or its fit) is not identified, or its ensemble left it without an interval (a ``k1``
+    the search box ended, :func:`~pier_monitor.core.identify.uncertainty.
+    without_k1_on_bound`); taken as exact it would turn its error into a loss beyond the
+    scatter."""
     u = section.uncertainty
-    return _misfit_says_unidentified(section.evidence) or (
+    return _evidence_says_unidentified(section.evidence) or (
         u is not None and u.members >= 2 and not u.k1.defined)
 
 
@@ -425,14 +437,17 @@ def _decide(ductility_factor: float, yielded: bool, uncertainty: SectionUncertai
 def _with_evidence(state: DamageState, reasons: tuple[str, ...], evidence: Sequence[str]
                    ) -> tuple[DamageState, tuple[str, ...]]:
     """At least suspicious, with the evidence's reasons, when there is any evidence; not
-    damaged on a DF that rule 8's evidence (:data:`BILINEAR_MISFIT`) says is not identified."""
+    damaged on a DF that rule 8's or rule 10's evidence (:data:`BILINEAR_MISFIT`,
+    :data:`FIT_AT_LIMIT`) says is not identified."""
     evidence = tuple(str(e) for e in evidence)
     if not evidence:
         return state, reasons
-    if state == DamageState.DAMAGED and _misfit_says_unidentified(evidence):
+    if state == DamageState.DAMAGED and _evidence_says_unidentified(evidence):
         state = DamageState.SUSPICIOUS
-        reasons = (*reasons, "DF not identified (the bilinear springs misfit): not called "
-                             "damaged on it")
+        why = ("the bilinear springs misfit" if any(e.startswith(BILINEAR_MISFIT)
+                                                    for e in evidence)
+               else "the section's fit ended at a limit")
+        reasons = (*reasons, f"DF not identified ({why}): not called damaged on it")
     return max(state, DamageState.SUSPICIOUS), reasons + evidence
 
 
@@ -600,8 +615,8 @@ class SectionResult:
         yielded if it yielded now or in the baseline; the DF is ``peak_so_far`` over the
         reference, at most 1 where it yielded in neither (as for a single event).  The state
         is decided again on that DF.  A section without a DF (NaN), a reference that is no
-        positive finite rotation, or a baseline section whose ``k1`` and DF rule 8 says are
-        not identified (:data:`BILINEAR_MISFIT`), stays as it is.
+        positive finite rotation, or a baseline section whose DF rule 8 or 10 says is not
+        identified (:data:`BILINEAR_MISFIT`, :data:`FIT_AT_LIMIT`), stays as it is.
 
         The DF interval goes with the DF shown: this event's members' interval, scaled by the
         cumulative DF over the event's own, and, where the section yielded, widened by the
@@ -610,9 +625,9 @@ class SectionResult:
         flagged poorly identified.  ``model_misfit``: this event's self-check found a model
         misfit (rule 9 of the module).
         """
-        if not math.isfinite(self.ductility_factor) or _misfit_says_unidentified(
+        if not math.isfinite(self.ductility_factor) or _evidence_says_unidentified(
                 baseline.evidence):
-            return self  # rule 8: the baseline's yield rotation and k1 are not identified
+            return self  # rules 8, 10: the baseline's yield rotation is not identified
         if baseline.yielded and math.isfinite(baseline.yield_angle_rad):
             theta_y = float(baseline.yield_angle_rad)
             what = f"the virgin yield rotation of {baseline_label}"
@@ -865,14 +880,18 @@ class IdentificationResult:
 
     def with_evidence(self, energy_index: Sequence[float] | np.ndarray,
                       evidence: Sequence[Sequence[str]],
-                      model_misfit: dict[str, Any] | None = None) -> IdentificationResult:
+                      model_misfit: dict[str, Any] | None = None,
+                      fit_limits: Sequence[Sequence[str]] | None = None
+                      ) -> IdentificationResult:
         """A copy with the self-check's energy indices, evidence and misfit summary.
 
         Every section with evidence becomes at least suspicious (a diagnosis only: unknown
         and unreliable sections stay so), its reasons extended by the evidence; later
         re-decisions (:meth:`with_k1_baseline`) keep it.  A model misfit of bilinear springs
         (rule 8 of the module) adds :data:`BILINEAR_MISFIT`'s line to every diagnosed
-        section's evidence and ``k1`` and ``DF`` to its ``poorly_identified``.
+        section's evidence and ``k1`` and ``DF`` to its ``poorly_identified``.  A section
+        with ``fit_limits`` (rule 10) gets a :data:`FIT_AT_LIMIT` line per reason, and the
+        quantity at its limit (``c`` or ``k2``) and ``DF`` in its ``poorly_identified``.
 
         Parameters
         ----------
@@ -883,26 +902,35 @@ class IdentificationResult:
         model_misfit : dict, optional
             The misfit summary for ``result.json``
             (:meth:`~pier_monitor.core.identify.selfcheck.ModelMisfit.as_dict`).
+        fit_limits : sequence of sequence of str, N of them, optional
+            Per section the reasons its fit ended at a limit
+            (:func:`~pier_monitor.core.identify.checks.section_fit_limits`).
 
         Raises
         ------
         InputDataError
-            If ``energy_index`` or ``evidence`` do not have one entry per section.
+            If ``energy_index``, ``evidence`` or ``fit_limits`` do not have one entry per
+            section.
         """
         n = len(self.sections)
         energy = np.asarray(energy_index, dtype=float)
-        if energy.shape != (n,) or len(evidence) != n:
+        limits = [()] * n if fit_limits is None else list(fit_limits)
+        if energy.shape != (n,) or len(evidence) != n or len(limits) != n:
             raise InputDataError(f"self-check evidence: expected {n} sections, got energy "
-                                 f"indices of shape {energy.shape} and {len(evidence)} "
-                                 "evidence lists")
+                                 f"indices of shape {energy.shape}, {len(evidence)} "
+                                 f"evidence lists and {len(limits)} fit-limit lists")
         bilinear_misfit = _bilinear_misfit(model_misfit, self.family)
         misfit = _is_model_misfit(model_misfit)
         sections = []
-        for s, e, ev in zip(self.sections, energy, evidence):
+        for s, e, ev, lim in zip(self.sections, energy, evidence, limits):
             ev = tuple(str(r) for r in ev)
             if bilinear_misfit and is_diagnosis(s.damage_state):  # rule 8
                 ev = (*ev, bilinear_misfit)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "k1", "DF"))
+            if lim and is_diagnosis(s.damage_state):  # rule 10
+                ev = (*ev, *(f"{FIT_AT_LIMIT}: {r}: its DF is not identified" for r in lim))
+                at = ["k2" if ": k2 = " in r else "c" for r in lim]
+                s = replace(s, poorly_identified=_flagged(s.poorly_identified, *at, "DF"))
             s = replace(s, energy_index=float(e), evidence=ev)
             if is_diagnosis(s.damage_state) and (ev or misfit):
                 state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
