@@ -238,6 +238,10 @@ def test_under_a_model_misfit_damaged_needs_a_df_interval_clear_of_1_5(
     if members > 1:  # the damaged share goes to suspicious where no section stays damaged
         assert result.p_overall_state == pytest.approx(
             p if state == "damaged" else (0.0, 1.0, 0.0))
+        # and the section's own shares with it (it was "suspicious (P 0.20)" before)
+        assert base.uncertainty.p_state == pytest.approx(
+            p if state == "damaged" else (0.0, 1.0, 0.0))
+        assert rebased.sections[0].uncertainty.p_state == base.uncertainty.p_state
     else:
         assert result.p_overall_state is None
     # without a misfit the members' most probable state stands
@@ -285,6 +289,9 @@ def test_a_section_whose_fit_ended_at_a_limit_is_suspicious_and_the_others_stand
     assert base.evidence == (f"{FIT_AT_LIMIT}: {limits[0][0]}: its DF is not identified",)
     assert base.reasons[-2] == ("DF not identified (the section's fit ended at a limit): not "
                                 "called damaged on it")
+    # the members' shares follow: the base's damaged share is suspicious now, the top's stand
+    assert base.uncertainty.p_state == pytest.approx((0.0, 1.0, 0.0))
+    assert result.sections[3].uncertainty.p_state == own.sections[3].uncertainty.p_state
     # read back and decided again against a k1 baseline 40 % stiffer: the rule stays, and the
     # base's k1 (its fit at a limit) is no evidence of a loss
     rebased = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
