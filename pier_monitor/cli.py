@@ -336,7 +336,9 @@ def _print_event(ev: EventOutcome) -> None:
         print(f"\nevent {r.event_id}{part}: window {w.duration_s:.1f} s, {how} "
               f"in {r.wall_time_s:.1f} s on {r.device}; overall state {r.overall_state.upper()}")
         if r.model_misfit and r.model_misfit.get("fires"):
-            print("model misfit: " + "; ".join(r.model_misfit.get("reasons", ())))
+            print("model misfit: " + "; ".join((*r.model_misfit.get("reasons", ()),
+                                                 *r.model_misfit.get("reproduction_misfits",
+                                                                     ()))))
         print(f"{'section':>8} {'z (m)':>11} {'k1 (N·m/rad)':>13} {'k2 (N·m/rad)':>13} "
               f"{'fy (N·m)':>10} {'c (N·m·s/rad)':>14} {'DF':>7} {'state':>10} "
               f"{'k1 change':>10} {'vs design':>10}")

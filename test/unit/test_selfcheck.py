@@ -238,6 +238,10 @@ def test_under_a_model_misfit_damaged_needs_a_df_interval_clear_of_1_5(
     if members > 1:  # the damaged share goes to suspicious where no section stays damaged
         assert result.p_overall_state == pytest.approx(
             p if state == "damaged" else (0.0, 1.0, 0.0))
+        # and the section's own shares with it (it was "suspicious (P 0.20)" before)
+        assert base.uncertainty.p_state == pytest.approx(
+            p if state == "damaged" else (0.0, 1.0, 0.0))
+        assert rebased.sections[0].uncertainty.p_state == base.uncertainty.p_state
     else:
         assert result.p_overall_state is None
     # without a misfit the members' most probable state stands
@@ -285,6 +289,9 @@ def test_a_section_whose_fit_ended_at_a_limit_is_suspicious_and_the_others_stand
     assert base.evidence == (f"{FIT_AT_LIMIT}: {limits[0][0]}: its DF is not identified",)
     assert base.reasons[-2] == ("DF not identified (the section's fit ended at a limit): not "
                                 "called damaged on it")
+    # the members' shares follow: the base's damaged share is suspicious now, the top's stand
+    assert base.uncertainty.p_state == pytest.approx((0.0, 1.0, 0.0))
+    assert result.sections[3].uncertainty.p_state == own.sections[3].uncertainty.p_state
     # read back and decided again against a k1 baseline 40 % stiffer: the rule stays, and the
     # base's k1 (its fit at a limit) is no evidence of a loss
     rebased = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
@@ -366,3 +373,30 @@ def test_a_misfit_that_follows_another_levels_response_is_the_models_noise_a_sen
     assert one.kind == "sensor" and one.reasons[0].startswith("suspect sensor at level 2: ")
     few = judge_misfit(shares, MisfitLimits(sensor_min_levels=5))
     assert few.kind == "model" and few.reasons[0].startswith("model misfit: level 2: ")
+
+
+def test_reproduced_responses_that_misfit_every_level_with_a_model_misfit_are_the_models(
+        tmp_path):
+    """BWBN springs (RC test-bed), Table 1 pier, full layout, just-yield, seed 302: the
+    equation-error springs misfit, the field reconstruction is taken, and its displacements
+    misfit every level; the self-check finds the model misfit.  That is the model's: every
+    section suspicious with k1 and DF flagged (rule 8), the reasons in the misfit summary,
+    not an unreliable result."""
+    from pier_monitor.bench import _field_window
+    from pier_monitor.bench_heldout import identify_rc_case
+
+    window, true_df, yielded, outcome, _ = identify_rc_case(
+        ResultsStore(tmp_path), _field_window, "rc", "bwbn", "table1", "full", "just_yield",
+        302)
+    result = outcome.result
+    assert outcome.status == "identified" and not result.unreliable_reasons
+    misfit = result.model_misfit
+    assert misfit["kind"] == "model"
+    levels = {r.split(":")[0] for r in misfit["reproduction_misfits"]}
+    assert levels == {f"level {n}" for n in range(1, 7)}
+    assert all("reproduced displacement departs" in r for r in misfit["reproduction_misfits"])
+    assert [s.state for s in result.sections] == ["suspicious"] * 6
+    assert all({"k1", "DF"} <= set(s.poorly_identified) for s in result.sections)
+    assert true_df[0] > 1.15 and yielded[0]  # the base yielded: never intact, never lost
+    saved = load_result(outcome.paths.result_json)
+    assert saved.model_misfit["reproduction_misfits"] == misfit["reproduction_misfits"]

@@ -34,7 +34,8 @@ from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
 from pier_monitor.core.model.link_model import natural_periods
 
-__all__ = ["CheckLimits", "check_identification", "level_misfits", "section_fit_limits"]
+__all__ = ["CheckLimits", "check_identification", "level_misfits", "reproduction_misfits",
+           "section_fit_limits"]
 
 
 @dataclass(frozen=True)
@@ -78,7 +79,8 @@ def _reference_damping(window: MeasuredWindow) -> np.ndarray:
 
 def check_identification(params: SpringParameters, reproduced: Reproduced,
                          window: MeasuredWindow, limits: CheckLimits | None = None, *,
-                         sections_apart: bool = False) -> list[str]:
+                         sections_apart: bool = False, misfits_apart: bool = False
+                         ) -> list[str]:
     """Reasons why an identification of ``window`` should not be believed (empty: none).
 
     Parameters
@@ -93,6 +95,9 @@ def check_identification(params: SpringParameters, reproduced: Reproduced,
     sections_apart : bool
         Leave out the reasons of :func:`section_fit_limits` (a ``k2`` at its cap, a ``c``
         out of its range): the caller judges those sections on their own.
+    misfits_apart : bool
+        Leave out the reasons of :func:`reproduction_misfits` (the reproduced responses'
+        misfit per level): the caller judges whose misfit it is.
 
     Returns
     -------
@@ -124,7 +129,8 @@ def check_identification(params: SpringParameters, reproduced: Reproduced,
         for i in np.flatnonzero(~np.isfinite(df) | (df > lim.max_df)):
             reasons.append(f"section {i + 1}: ductility factor {df[i]:.3g} is implausible "
                            f"(above {lim.max_df:g})")
-    reasons += _misfit_reasons(reproduced, window, lim)
+    if not misfits_apart:
+        reasons += [r for _, r in reproduction_misfits(reproduced, window, lim)]
     return reasons
 
 
@@ -198,8 +204,13 @@ def level_misfits(measured: np.ndarray, reproduced: np.ndarray, sigma: np.ndarra
         yield int(lv), meas, res, scale, float(np.sqrt(np.mean(res ** 2))) / scale, noise
 
 
-def _misfit_reasons(reproduced: Reproduced, window: MeasuredWindow,
-                    lim: CheckLimits) -> list[str]:
+def reproduction_misfits(reproduced: Reproduced, window: MeasuredWindow,
+                         limits: CheckLimits | None = None) -> list[tuple[int, str]]:
+    """Where the reproduced responses depart from the measured ones beyond ``misfit_rel``
+    plus ``misfit_noise`` noise standard deviations: ``(level, reason)`` per level and
+    quantity, the level 1-based (accelerations where measured; velocities and displacements
+    where a displacement sensor measured them)."""
+    lim = limits or CheckLimits()
     reasons = []
     # velocities and displacements only where a sensor measured a displacement: elsewhere the
     # window holds the accelerations integrated above the drift band, which leave out the
@@ -213,6 +224,7 @@ def _misfit_reasons(reproduced: Reproduced, window: MeasuredWindow,
                 getattr(window.noise, q), covered):
             allowed = lim.misfit_rel + lim.misfit_noise * noise / scale
             if not math.isfinite(misfit) or misfit > allowed:
-                reasons.append(f"level {lv + 1}: the reproduced {names[q]} departs from the "
-                               f"measured by {misfit:.0%} RMS (allowed {allowed:.0%})")
+                reasons.append((lv + 1, f"level {lv + 1}: the reproduced {names[q]} departs "
+                                        f"from the measured by {misfit:.0%} RMS (allowed "
+                                        f"{allowed:.0%})"))
     return reasons

@@ -65,6 +65,10 @@ applies with or without an ensemble, and only raises a state
     or damaged, with the reason :data:`FIT_AT_LIMIT` (evidence, kept as rule 8's is), and
     its ``k1`` is no evidence of a loss; the other sections keep their states.  Before, such
     a section made the whole event unreliable, and with it no baseline for the next.
+
+A section's state probabilities (``uncertainty.p_state``, the members' shares) follow the
+self-check's evidence as its state does (:func:`_p_state_with_evidence`): the members never
+saw it, and a section raised to suspicious by it was shown "suspicious (P 0.00)".
 """
 
 from __future__ import annotations
@@ -292,17 +296,41 @@ def _bilinear_misfit(model_misfit: dict[str, Any] | None, family: dict[str, Any]
             "identified")
 
 
+def _df_clear_of_damaged(uncertainty: SectionUncertainty | None) -> bool:
+    """Whether an ensemble's 90 % DF interval lies wholly at or above 1.5 (rule 9)."""
+    if uncertainty is None or uncertainty.members < 2:
+        return False
+    df = uncertainty.ductility_factor
+    return bool(df.defined and df.lo >= DAMAGED_DF)
+
+
+def _p_state_with_evidence(uncertainty: SectionUncertainty | None, evidence: Sequence[str],
+                           model_misfit: bool) -> SectionUncertainty | None:
+    """The members' state probabilities with the self-check's evidence applied as the state
+    is: evidence moves the intact share to suspicious (rules 5-8, 10); a DF the evidence
+    says is not identified (rules 8, 10), or one under a model misfit whose interval does
+    not clear 1.5 (rule 9), moves the damaged share to suspicious.  The members never saw
+    the self-check: a section raised to suspicious by it showed "suspicious (P 0.00)"."""
+    if uncertainty is None or uncertainty.members < 2 or not (evidence or model_misfit):
+        return uncertainty
+    p_i, p_s, p_d = uncertainty.p_state
+    if evidence:
+        p_i, p_s = 0.0, p_s + p_i
+    if _evidence_says_unidentified(evidence) or (
+            model_misfit and not _df_clear_of_damaged(uncertainty)):
+        p_s, p_d = p_s + p_d, 0.0
+    return replace(uncertainty, p_state=(p_i, p_s, p_d))
+
+
 def _misfit_caps_damaged(state: DamageState, reasons: tuple[str, ...],
                          uncertainty: SectionUncertainty | None
                          ) -> tuple[DamageState, tuple[str, ...]]:
     """Rule 9: under a model misfit, damaged only on a 90 % DF interval at or above 1.5
     (``uncertainty`` the section's, its DF interval the one the state is decided on);
     otherwise suspicious with the reason :data:`MODEL_MISFIT_NOT_DAMAGED`."""
-    if state != DamageState.DAMAGED:
+    if state != DamageState.DAMAGED or _df_clear_of_damaged(uncertainty):
         return state, reasons
     df = None if uncertainty is None or uncertainty.members < 2 else uncertainty.ductility_factor
-    if df is not None and df.defined and df.lo >= DAMAGED_DF:
-        return state, reasons
     what = (f"90 % interval [{df.lo:.2f}, {df.hi:.2f}]" if df is not None and df.defined
             else "no interval")
     return DamageState.SUSPICIOUS, (
@@ -936,7 +964,8 @@ class IdentificationResult:
                 state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
                 if misfit:  # rule 9
                     state, reasons = _misfit_caps_damaged(state, reasons, s.uncertainty)
-                s = replace(s, state=state.name.lower(), reasons=reasons)
+                s = replace(s, state=state.name.lower(), reasons=reasons,
+                            uncertainty=_p_state_with_evidence(s.uncertainty, ev, misfit))
             sections.append(s)
         sections = tuple(sections)
         overall = overall_state(sections) if self.success else self.overall_state
