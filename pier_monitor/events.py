@@ -112,9 +112,10 @@ def _models_misfit(reproduction: list[tuple[int, str]], misfit: dict[str, Any]) 
     layout, where the equation-error springs misfit and the field route is taken) by
     30-40 % RMS at just-yield (held-out seed 302) and 86-93 % strong (tuning seeds
     300-301), against 25-26 % allowed, while the self-check found the same model misfit.
-    That is the model misfit the self-check reports, whose rules make every section at
-    least suspicious with its DF not identified (rules 6 and 8 of
-    :mod:`~pier_monitor.core.identify.damage`), not a result to discard.
+    That is the model misfit the self-check reports, not a result to discard: it is
+    evidence on every section (at least suspicious, rule 6 of
+    :mod:`~pier_monitor.core.identify.damage`), and with bilinear springs their ``k1`` and
+    DF are not identified (rule 8).
     """
     return misfit.get("kind") == "model" and len({lv for lv, _ in reproduction}) >= 2
 
@@ -202,9 +203,14 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
                                    misfits_apart=True)
     check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a)
     misfit = check.misfit.as_dict()
+    evidence = list(check.evidence)
     reproduction = reproduction_misfits(run.reproduced, window)
     if _models_misfit(reproduction, misfit):
         misfit["reproduction_misfits"] = [r for _, r in reproduction]
+        levels = sorted({lv for lv, _ in reproduction})
+        line = (f"model misfit: the identification's reproduced responses depart from the "
+                f"measured at levels {', '.join(map(str, levels))}")
+        evidence = [(*ev, line) for ev in evidence]
     else:
         reasons += [r for _, r in reproduction]
     reasons = [*reasons, *check.unreliable_reasons]
@@ -212,7 +218,7 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     if baseline is not None and not reasons:  # an unreliable result's DF is no diagnosis
         result = result.with_cumulative_ductility(baseline, store.peak_rotations_before(window))
     run = replace(run, result=result.with_evidence(
-        check.energy_index, check.evidence, misfit,
+        check.energy_index, evidence, misfit,
         fit_limits=section_fit_limits(checked, window)))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)

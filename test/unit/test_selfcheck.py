@@ -397,6 +397,9 @@ def test_reproduced_responses_that_misfit_every_level_with_a_model_misfit_are_th
     assert all("reproduced displacement departs" in r for r in misfit["reproduction_misfits"])
     assert [s.state for s in result.sections] == ["suspicious"] * 6
     assert all({"k1", "DF"} <= set(s.poorly_identified) for s in result.sections)
+    assert all(any(e.startswith("model misfit: the identification's reproduced responses "
+                                "depart from the measured at levels 1, 2, 3, 4, 5, 6")
+                   for e in s.evidence) for s in result.sections)
     assert true_df[0] > 1.15 and yielded[0]  # the base yielded: never intact, never lost
     saved = load_result(outcome.paths.result_json)
     assert saved.model_misfit["reproduction_misfits"] == misfit["reproduction_misfits"]
