@@ -909,7 +909,7 @@ class IdentificationResult:
     def with_evidence(self, energy_index: Sequence[float] | np.ndarray,
                       evidence: Sequence[Sequence[str]],
                       model_misfit: dict[str, Any] | None = None,
-                      fit_limits: Sequence[Sequence[str]] | None = None
+                      fit_limits: Sequence[Sequence[tuple[str, str]]] | None = None
                       ) -> IdentificationResult:
         """A copy with the self-check's energy indices, evidence and misfit summary.
 
@@ -930,8 +930,8 @@ class IdentificationResult:
         model_misfit : dict, optional
             The misfit summary for ``result.json``
             (:meth:`~pier_monitor.core.identify.selfcheck.ModelMisfit.as_dict`).
-        fit_limits : sequence of sequence of str, N of them, optional
-            Per section the reasons its fit ended at a limit
+        fit_limits : sequence of sequence of (str, str), N of them, optional
+            Per section the quantities at a limit and the reasons
             (:func:`~pier_monitor.core.identify.checks.section_fit_limits`).
 
         Raises
@@ -956,9 +956,9 @@ class IdentificationResult:
                 ev = (*ev, bilinear_misfit)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "k1", "DF"))
             if lim and is_diagnosis(s.damage_state):  # rule 10
-                ev = (*ev, *(f"{FIT_AT_LIMIT}: {r}: its DF is not identified" for r in lim))
-                at = ["k2" if ": k2 = " in r else "c" for r in lim]
-                s = replace(s, poorly_identified=_flagged(s.poorly_identified, *at, "DF"))
+                ev = (*ev, *(f"{FIT_AT_LIMIT}: {r}: its DF is not identified" for _, r in lim))
+                s = replace(s, poorly_identified=_flagged(s.poorly_identified,
+                                                          *(q for q, _ in lim), "DF"))
             s = replace(s, energy_index=float(e), evidence=ev)
             if is_diagnosis(s.damage_state) and (ev or misfit):
                 state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
