@@ -313,13 +313,22 @@ def _p_state_with_evidence(uncertainty: SectionUncertainty | None, evidence: Seq
     the self-check: a section raised to suspicious by it showed "suspicious (P 0.00)"."""
     if uncertainty is None or uncertainty.members < 2 or not (evidence or model_misfit):
         return uncertainty
-    p_i, p_s, p_d = uncertainty.p_state
-    if evidence:
+    return replace(uncertainty, p_state=_shares_to_suspicious(
+        uncertainty.p_state, intact=bool(evidence),
+        damaged=_evidence_says_unidentified(evidence) or (
+            model_misfit and not _df_clear_of_damaged(uncertainty))))
+
+
+def _shares_to_suspicious(p: Sequence[float], *, intact: bool, damaged: bool
+                          ) -> tuple[float, float, float]:
+    """State probabilities ``p`` (intact, suspicious, damaged) with the intact share and/or
+    the damaged share moved to suspicious."""
+    p_i, p_s, p_d = (float(v) for v in p)
+    if intact:
         p_i, p_s = 0.0, p_s + p_i
-    if _evidence_says_unidentified(evidence) or (
-            model_misfit and not _df_clear_of_damaged(uncertainty)):
+    if damaged:
         p_s, p_d = p_s + p_d, 0.0
-    return replace(uncertainty, p_state=(p_i, p_s, p_d))
+    return p_i, p_s, p_d
 
 
 def _misfit_caps_damaged(state: DamageState, reasons: tuple[str, ...],
@@ -1235,12 +1244,9 @@ def _p_overall_with_evidence(p: tuple[float, float, float] | None,
     suspicious too.  None stays None (a single identification)."""
     if p is None:
         return None
-    intact, suspicious, damaged = (float(v) for v in p)
-    if any(s.evidence for s in sections if is_diagnosis(s.damage_state)):
-        intact, suspicious = 0.0, suspicious + intact
-    if misfit and overall != DamageState.DAMAGED.name.lower():
-        suspicious, damaged = suspicious + damaged, 0.0
-    return intact, suspicious, damaged
+    return _shares_to_suspicious(
+        p, intact=any(s.evidence for s in sections if is_diagnosis(s.damage_state)),
+        damaged=misfit and overall != DamageState.DAMAGED.name.lower())
 
 
 def overall_state(sections: tuple[SectionResult, ...]) -> str:
