@@ -279,14 +279,16 @@ def test_a_section_whose_fit_ended_at_a_limit_is_suspicious_and_the_others_stand
             _base_uncertainty(df, p), k1=Spread(k1, 0.01 * k1, 0.983 * k1, 1.017 * k1),
             p_yielded=float(i == 0)))
     own = dataclasses.replace(own, sections=tuple(sec))
-    limits = [["section 1: c = 1e+03 N·m·s/rad is near zero (4e-05 of the reference 2.5e+07)"],
-              [], ["section 3: c = 6.5e+09 N·m·s/rad is 451 times the reference 1.44e+07"], []]
+    limits = [[("c", "section 1: c = 1e+03 N·m·s/rad is near zero (4e-05 of the reference "
+                     "2.5e+07)")],
+              [], [("c", "section 3: c = 6.5e+09 N·m·s/rad is 451 times the reference "
+                         "1.44e+07")], []]
     result = own.with_evidence(np.zeros(4), [()] * 4, clean, fit_limits=limits)
     assert [s.state for s in result.sections] == ["suspicious", "damaged", "suspicious", "intact"]
     assert result.overall_state == "damaged" and not result.unreliable_reasons
     base, third = result.sections[0], result.sections[2]
     assert base.poorly_identified == ("c", "DF") and third.poorly_identified == ("c", "DF")
-    assert base.evidence == (f"{FIT_AT_LIMIT}: {limits[0][0]}: its DF is not identified",)
+    assert base.evidence == (f"{FIT_AT_LIMIT}: {limits[0][0][1]}: its DF is not identified",)
     assert base.reasons[-2] == ("DF not identified (the section's fit ended at a limit): not "
                                 "called damaged on it")
     # the members' shares follow: the base's damaged share is suspicious now, the top's stand

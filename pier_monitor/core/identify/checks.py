@@ -120,7 +120,7 @@ def check_identification(params: SpringParameters, reproduced: Reproduced,
                                  f"got {arr.shape}")
     reasons = [r for i in range(n) for r in _k1_reasons(params, window, lim, i)]
     if not sections_apart:
-        reasons += [r for sec in section_fit_limits(params, window, lim) for r in sec]
+        reasons += [r for sec in section_fit_limits(params, window, lim) for _, r in sec]
     theta = np.asarray(reproduced.theta)
     if not np.all(np.isfinite(theta)):
         reasons.append("the reproduced spring angles are not finite")
@@ -154,10 +154,11 @@ def _k1_reasons(params: SpringParameters, window: MeasuredWindow, lim: CheckLimi
 
 
 def section_fit_limits(params: SpringParameters, window: MeasuredWindow,
-                       limits: CheckLimits | None = None) -> list[list[str]]:
-    """Per section, the reasons its fit ended at a limit: ``k2`` at its cap ``k2_cap k1``, or
-    ``c`` outside ``c_ratio`` of the reference damping (the design's, else 2 % of critical
-    in the first mode).  One list per section (empty: none).
+                       limits: CheckLimits | None = None) -> list[list[tuple[str, str]]]:
+    """Per section, where its fit ended at a limit: ``("k2", reason)`` for ``k2`` at its cap
+    ``k2_cap k1``, ``("c", reason)`` for ``c`` outside ``c_ratio`` of the reference damping
+    (the design's, else 2 % of critical in the first mode).  One list per section (empty:
+    none).
 
     Such a spring's damping or post-yield slope is not identified, and its ``fy`` and DF
     with it (a damper that runs off takes or leaves the dissipation that the spring's loop
@@ -178,10 +179,10 @@ def section_fit_limits(params: SpringParameters, window: MeasuredWindow,
         k1, k2 = params.k1[i], params.k2[i]
         reasons = []
         if k2 >= lim.k2_cap * k1 * (1.0 - lim.bound_tol):
-            reasons.append(f"{sec}: k2 = {k2:.3g} N·m/rad sits at its bound "
-                           f"{lim.k2_cap:g} k1")
-        reasons += _ratio_reason(sec, "c", "N·m·s/rad", params.c[i], c_ref[i], lim.c_ratio,
-                                 "reference")
+            reasons.append(("k2", f"{sec}: k2 = {k2:.3g} N·m/rad sits at its bound "
+                                  f"{lim.k2_cap:g} k1"))
+        reasons += [("c", r) for r in _ratio_reason(sec, "c", "N·m·s/rad", params.c[i],
+                                                    c_ref[i], lim.c_ratio, "reference")]
         out.append(reasons)
     return out
 

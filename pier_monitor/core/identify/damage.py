@@ -313,13 +313,22 @@ def _p_state_with_evidence(uncertainty: SectionUncertainty | None, evidence: Seq
     the self-check: a section raised to suspicious by it showed "suspicious (P 0.00)"."""
     if uncertainty is None or uncertainty.members < 2 or not (evidence or model_misfit):
         return uncertainty
-    p_i, p_s, p_d = uncertainty.p_state
-    if evidence:
+    return replace(uncertainty, p_state=_shares_to_suspicious(
+        uncertainty.p_state, intact=bool(evidence),
+        damaged=_evidence_says_unidentified(evidence) or (
+            model_misfit and not _df_clear_of_damaged(uncertainty))))
+
+
+def _shares_to_suspicious(p: Sequence[float], *, intact: bool, damaged: bool
+                          ) -> tuple[float, float, float]:
+    """State probabilities ``p`` (intact, suspicious, damaged) with the intact share and/or
+    the damaged share moved to suspicious."""
+    p_i, p_s, p_d = (float(v) for v in p)
+    if intact:
         p_i, p_s = 0.0, p_s + p_i
-    if _evidence_says_unidentified(evidence) or (
-            model_misfit and not _df_clear_of_damaged(uncertainty)):
+    if damaged:
         p_s, p_d = p_s + p_d, 0.0
-    return replace(uncertainty, p_state=(p_i, p_s, p_d))
+    return p_i, p_s, p_d
 
 
 def _misfit_caps_damaged(state: DamageState, reasons: tuple[str, ...],
@@ -909,7 +918,7 @@ class IdentificationResult:
     def with_evidence(self, energy_index: Sequence[float] | np.ndarray,
                       evidence: Sequence[Sequence[str]],
                       model_misfit: dict[str, Any] | None = None,
-                      fit_limits: Sequence[Sequence[str]] | None = None
+                      fit_limits: Sequence[Sequence[tuple[str, str]]] | None = None
                       ) -> IdentificationResult:
         """A copy with the self-check's energy indices, evidence and misfit summary.
 
@@ -930,8 +939,8 @@ class IdentificationResult:
         model_misfit : dict, optional
             The misfit summary for ``result.json``
             (:meth:`~pier_monitor.core.identify.selfcheck.ModelMisfit.as_dict`).
-        fit_limits : sequence of sequence of str, N of them, optional
-            Per section the reasons its fit ended at a limit
+        fit_limits : sequence of sequence of (str, str), N of them, optional
+            Per section the quantities at a limit and the reasons
             (:func:`~pier_monitor.core.identify.checks.section_fit_limits`).
 
         Raises
@@ -956,9 +965,9 @@ class IdentificationResult:
                 ev = (*ev, bilinear_misfit)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "k1", "DF"))
             if lim and is_diagnosis(s.damage_state):  # rule 10
-                ev = (*ev, *(f"{FIT_AT_LIMIT}: {r}: its DF is not identified" for r in lim))
-                at = ["k2" if ": k2 = " in r else "c" for r in lim]
-                s = replace(s, poorly_identified=_flagged(s.poorly_identified, *at, "DF"))
+                ev = (*ev, *(f"{FIT_AT_LIMIT}: {r}: its DF is not identified" for _, r in lim))
+                s = replace(s, poorly_identified=_flagged(s.poorly_identified,
+                                                          *(q for q, _ in lim), "DF"))
             s = replace(s, energy_index=float(e), evidence=ev)
             if is_diagnosis(s.damage_state) and (ev or misfit):
                 state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
@@ -1235,12 +1244,9 @@ def _p_overall_with_evidence(p: tuple[float, float, float] | None,
     suspicious too.  None stays None (a single identification)."""
     if p is None:
         return None
-    intact, suspicious, damaged = (float(v) for v in p)
-    if any(s.evidence for s in sections if is_diagnosis(s.damage_state)):
-        intact, suspicious = 0.0, suspicious + intact
-    if misfit and overall != DamageState.DAMAGED.name.lower():
-        suspicious, damaged = suspicious + damaged, 0.0
-    return intact, suspicious, damaged
+    return _shares_to_suspicious(
+        p, intact=any(s.evidence for s in sections if is_diagnosis(s.damage_state)),
+        damaged=misfit and overall != DamageState.DAMAGED.name.lower())
 
 
 def overall_state(sections: tuple[SectionResult, ...]) -> str:

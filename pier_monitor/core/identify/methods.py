@@ -39,8 +39,8 @@ import numpy as np
 from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, IdentificationResult,
-                                               build_sections, k1_change_pct, member_ductility, overall_state,
-                                               with_family, with_identifiability)
+                                               build_sections, k1_change_pct, member_ductility,
+                                               overall_state, with_family, with_identifiability)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
 from pier_monitor.core.identify.families import (TAKEDA_DF_RESOLUTION, FamilyChoice,

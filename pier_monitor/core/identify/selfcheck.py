@@ -342,6 +342,7 @@ def model_misfit(window: MeasuredWindow, params: SpringParameters,
     for q, covered in (("a", window.coverage.acceleration), ("x", window.coverage.displacement)):
         levels = np.flatnonzero(covered)
         simulated = np.asarray(getattr(sim, q))[:, levels]
+        finite = bool(np.all(np.isfinite(simulated)))
         measured = np.asarray(getattr(window, q))[:, levels]
         for lv, meas, res, scale, misfit, sigma in level_misfits(
                 getattr(window, q), getattr(sim, q), getattr(window.noise, q), covered):
@@ -350,7 +351,7 @@ def model_misfit(window: MeasuredWindow, params: SpringParameters,
             # level's own measurement, which holds its sensor's fault
             response = np.concatenate([simulated, measured[:, levels != lv]], axis=1)
             share = (_systematic_share(res, response, window.dt)
-                     if math.isfinite(misfit) and np.all(np.isfinite(simulated)) else 1.0)
+                     if math.isfinite(misfit) and finite else 1.0)
             offset = (_moving_mean_rms(res, int(round(lim.offset_span_s / window.dt))) / scale
                       if q == "a" else 0.0)
             entries.append(MisfitEntry(level=int(lv + 1), quantity=_NAMES[q], misfit=misfit,
