@@ -142,8 +142,9 @@ def test_idealised_yield_floor_moves_an_early_takeda_corner_only():
 
 def test_idealised_yield_floor_is_a_share_of_the_nominal_moment_not_the_hardened_peak():
     """Far past its corner a hardening skeleton's peak moment carries the post-yield slope:
-    the floor is ``f`` of the moment at ``TAKEDA_NOMINAL_DUCTILITY`` (4) times the corner,
-    so a corner that is first yield keeps its secant however far the event went."""
+    on a skeleton with a cracked branch the floor is ``f`` of the moment at
+    ``TAKEDA_NOMINAL_DUCTILITY`` (4) times the corner, so a corner that is first yield keeps
+    its secant however far the event went."""
     sk = takeda_skeleton(SMALL)  # corner at θ'y = 1, My = 4, kp = 0.2
     # θp = 20: Mp = 4 + 0.2·19 = 7.8, and 0.8·Mp = 6.24 lies above the corner (θ = 12.2);
     # the nominal moment S(4) = 4.6 and 0.8 of it (3.68) lies below: the corner's secant 4
@@ -161,6 +162,14 @@ def test_idealised_yield_floor_is_a_share_of_the_nominal_moment_not_the_hardened
     area6 = 0.05 + 2.25 + (4.0 + 11.5) / 2 * 5.0
     assert idealised_yield(early, 6.0, 0.8) == pytest.approx(
         min((2 * area6 - 11.5 * 6.0) / (ky * 6.0 - 11.5), 11.5 / ky), rel=1e-12)
+    # a fit without a cracked branch (initial stiffness 1.02 times the corner's secant): its
+    # corner lies on a smooth curve, the floor stays 0.8 of the peak moment, 0.8·11.5 = 9.2
+    smooth = takeda_skeleton(TakedaParameters(k0=4.08, mc=0.408, my=4.0, theta_y=1.0, kp=1.5))
+    te_s = 1.0 + 5.2 / 1.5
+    ky_s = 9.2 / te_s
+    area_s = 0.5 * 0.408 * 0.1 + (0.408 + 4.0) / 2 * 0.9 + (4.0 + 11.5) / 2 * 5.0
+    assert idealised_yield(smooth, 6.0, 0.8) == pytest.approx(
+        min((2 * area_s - 11.5 * 6.0) / (ky_s * 6.0 - 11.5), 11.5 / ky_s), rel=1e-12)
 
 
 def test_takeda_parameters_and_histories_are_checked():
