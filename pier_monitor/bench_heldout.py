@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.errors import InputDataError, SolverError
 from pier_monitor.core.identify.methods import IdentifySettings
 from pier_monitor.core.identify.states import classify_ductility
 from pier_monitor.core.ingest import ingest_recording
@@ -50,8 +50,10 @@ __all__ = ["true_ductility", "identify_default", "identify_rc_case", "heldout_pi
 
 #: Seeds of the suite; nothing in the product was chosen on them.
 HELDOUT_SEEDS = (600, 601, 602, 603)
-#: Seeds of the RC (modified-Takeda) cases.
-HELDOUT_RC_SEEDS = (610,)
+#: Seeds of the RC (modified-Takeda) cases: 610, then 611-618 registered before the field
+#: route's Takeda reconstruction was tuned for heavy shakings (on tuning seeds 620-638 of
+#: :func:`heldout_case`, never on these).
+HELDOUT_RC_SEEDS = (610, 611, 612, 613, 614, 615, 616, 617, 618)
 #: What was tuned in the product, and on which cases/seeds (none of them is scored here).
 TUNING = {
     "selfcheck_misfit_limits": "selfcheck suite, tuning seeds 300-301",
@@ -91,9 +93,18 @@ TUNING = {
                                  "(events._models_misfit): seen on the rc suite's held-out "
                                  "seed 302 and tuning seeds 300-301 (BWBN, Table 1, full "
                                  "layout); no threshold was tuned"),
+    "field_takeda_heavy_shakings": ("field_families.REFINED_STARTS 3 and MAX_CHI2_PER_NEFF "
+                                    "40 (was 1 and 20), springs.TAKEDA_NOMINAL_DUCTILITY 4, "
+                                    "families.MIN_YIELD_ROTATION_SHARE on the equation-error "
+                                    "route: heldout_case draws with Takeda springs, tuning "
+                                    "seeds 620-638 (both piers, full and accel); the RC seeds "
+                                    "611-618 were registered before and never looked at"),
 }
 #: Log-normal spread (σ of the natural log) of the design values around the truth.
 DESIGN_LOG_SD = 0.25
+#: DF error (%) within which a yielded section counts as identified, per layout (the RC
+#: acceptance: 15 % with a sensor at every level, 30 % with three levels).
+DF_TARGET_PCT = {"full": 15.0, "accel": 15.0, "sparse": 30.0}
 #: Relative margin (beyond the interval) at which a k1 shown as identified is "confidently
 #: wrong".
 K1_CONFIDENT_MARGIN = 0.05
@@ -251,7 +262,9 @@ def bench_heldout(seeds: tuple[int, ...] = HELDOUT_SEEDS,
                         store = ResultsStore(Path(tmp) / f"{hyst}_{pier}_{layout}_{seed}")
                         try:
                             out.append(_heldout_run(store, pier, layout, seed, hyst, method))
-                        except InputDataError as exc:  # a drawn case the generator cannot make
+                        except (InputDataError, SolverError) as exc:
+                            # a drawn case the generator cannot make (the RC test-bed's own
+                            # Newmark iteration may not converge on a drawn record)
                             out.append({"case": f"heldout_{hyst}_{pier}_{layout}", "seed": seed,
                                         "pier": pier, "layout": layout, "hysteresis": hyst,
                                         "skipped": str(exc), "wall_s": 0.0, "device": "cpu"})
@@ -290,6 +303,11 @@ def summarize_heldout(runs: list[dict[str, Any]]) -> dict[str, Any]:
             "missed_df_ge_1.5": sum(s["missed"] for s in secs),
             "over_calls_df_lt_1.2": sum(s["over_call"] for s in secs),
             "df_err_pct_mae": {"yielded": _mae([s["df_err_pct"] for s in yld])},
+            "df_err_pct_max": {"yielded": max((abs(s["df_err_pct"]) for s in yld),
+                                              default=None)},
+            # the RC issue's target: within 15 % (full, accelerometers), 30 % (three levels)
+            "df_within_target": _share([abs(s["df_err_pct"]) <= DF_TARGET_PCT[key[2]]
+                                        for s in yld]),
             "flagged_poorly_identified": {
                 p: sum(p in s["poorly_identified"] for s in secs)
                 for p in ("k1", "k2", "fy", "c", "DF")},

@@ -199,8 +199,11 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
         return EventOutcome(window=window, result=failed, out_dir=out_dir,
                             window_file=window_file, paths=None)
     checked = _checked_params(run.result, window)
-    reasons = check_identification(checked, run.reproduced, window, sections_apart=True,
-                                   misfits_apart=True)
+    family = (run.result.family or {}).get("family", "bilinear")
+    reasons = check_identification(
+        checked, run.reproduced, window, sections_apart=True, misfits_apart=True,
+        ductility=(None if family == "bilinear"
+                   else np.array([s.ductility_factor for s in run.result.sections])))
     check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a)
     misfit = check.misfit.as_dict()
     evidence = list(check.evidence)

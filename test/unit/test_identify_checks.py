@@ -100,6 +100,25 @@ def test_parameters_at_bounds_or_implausible_are_named(windows):
         k1_ratio=(1e-4, 100.0), c_ratio=(1e-20, 1e4), k2_cap=1.0, max_df=1e9)) == []
 
 
+def test_the_ductility_judged_is_the_one_the_result_reports(windows):
+    """Given the reported DFs (a Takeda event's, on its own skeleton), the check judges
+    those, not the bilinear ratio of the parameters: section 4's fy at 1e-3 of the design
+    is no reason then, a reported DF of 25 at section 2 is."""
+    w = windows[0]
+    params, reproduced = identified(w)
+    odd = dataclasses.replace(params, fy=params.fy * np.array([1.0, 1.0, 1.0, 1e-3]))
+    assert any("section 4: ductility factor" in r for r in check_identification(
+        odd, reproduced, w))
+    assert not any("ductility factor" in r for r in check_identification(
+        odd, reproduced, w, ductility=np.array([3.0, 1.4, 1.0, 0.6])))
+    reasons = check_identification(odd, reproduced, w, ductility=np.array([3.0, 25.0, 1.0,
+                                                                              0.6]))
+    assert [r for r in reasons if "ductility factor" in r] == [
+        "section 2: ductility factor 25 is implausible (above 20)"]
+    with pytest.raises(InputDataError, match="ductility: expected 4 values"):
+        check_identification(params, reproduced, w, ductility=np.ones(3))
+
+
 def test_a_damper_or_k2_at_its_limit_is_its_sections_own(windows):
     """A ``c`` out of range or a ``k2`` at its cap is returned per section, and with
     ``sections_apart`` left out of the whole event's reasons; ``k1`` and DF stay there."""

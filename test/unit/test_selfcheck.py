@@ -304,6 +304,17 @@ def test_a_section_whose_fit_ended_at_a_limit_is_suspicious_and_the_others_stand
     assert not any(r.endswith("cracking") for r in rebased.sections[0].reasons)
     with pytest.raises(InputDataError, match="3 fit-limit lists"):
         own.with_evidence(np.zeros(4), [()] * 4, clean, fit_limits=limits[:3])
+    # the event's shares: section 2 stays damaged, so the worst section's damaged share stands
+    p = (0.0, 0.1, 0.9)
+    assert dataclasses.replace(own, p_overall_state=p).with_evidence(
+        np.zeros(4), [()] * 4, clean, fit_limits=limits).p_overall_state == pytest.approx(p)
+    # ... where rule 10 capped the only damaged section, it goes to suspicious with the state
+    only = dataclasses.replace(own, p_overall_state=p, sections=(
+        own.sections[0], dataclasses.replace(own.sections[1], state="intact"),
+        *own.sections[2:]))
+    capped = only.with_evidence(np.zeros(4), [()] * 4, clean, fit_limits=limits)
+    assert capped.overall_state == "suspicious"
+    assert capped.p_overall_state == pytest.approx((0.0, 1.0, 0.0))
 
 
 def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(

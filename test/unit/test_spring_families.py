@@ -140,6 +140,38 @@ def test_idealised_yield_floor_moves_an_early_takeda_corner_only():
         idealised_yield(early, 3.0, 1.0)
 
 
+def test_idealised_yield_floor_is_a_share_of_the_nominal_moment_not_the_hardened_peak():
+    """Far past its corner a hardening skeleton's peak moment carries the post-yield slope:
+    on a skeleton with a cracked branch the floor is ``f`` of the moment at
+    ``TAKEDA_NOMINAL_DUCTILITY`` (4) times the corner, so a corner that is first yield keeps
+    its secant however far the event went."""
+    sk = takeda_skeleton(SMALL)  # corner at θ'y = 1, My = 4, kp = 0.2
+    # θp = 20: Mp = 4 + 0.2·19 = 7.8, and 0.8·Mp = 6.24 lies above the corner (θ = 12.2);
+    # the nominal moment S(4) = 4.6 and 0.8 of it (3.68) lies below: the corner's secant 4
+    area = 0.05 + 0.9 * 2.5 + (4.0 + 7.8) / 2 * 19.0
+    assert idealised_yield(sk, 20.0, 0.8) == pytest.approx(
+        (2 * area - 7.8 * 20.0) / (4.0 * 20.0 - 7.8), rel=1e-12)
+    assert idealised_yield(sk, 20.0, 0.8) == idealised_yield(sk, 20.0)
+    # within four times the corner nothing changes: the early corner of the test above
+    early = takeda_skeleton(TakedaParameters(k0=10.0, mc=1.0, my=4.0, theta_y=1.0, kp=1.5))
+    te = 1.0 + 1.6 / 1.5
+    assert idealised_yield(early, 3.0, 0.8) == pytest.approx(te / 0.8, rel=1e-12)
+    # past it the floor stops at 0.8·S(4) = 0.8·8.5 = 6.8, at θ = 1 + 2.8/1.5
+    te6 = 1.0 + 2.8 / 1.5
+    ky = 6.8 / te6
+    area6 = 0.05 + 2.25 + (4.0 + 11.5) / 2 * 5.0
+    assert idealised_yield(early, 6.0, 0.8) == pytest.approx(
+        min((2 * area6 - 11.5 * 6.0) / (ky * 6.0 - 11.5), 11.5 / ky), rel=1e-12)
+    # a fit without a cracked branch (initial stiffness 1.02 times the corner's secant): its
+    # corner lies on a smooth curve, the floor stays 0.8 of the peak moment, 0.8·11.5 = 9.2
+    smooth = takeda_skeleton(TakedaParameters(k0=4.08, mc=0.408, my=4.0, theta_y=1.0, kp=1.5))
+    te_s = 1.0 + 5.2 / 1.5
+    ky_s = 9.2 / te_s
+    area_s = 0.5 * 0.408 * 0.1 + (0.408 + 4.0) / 2 * 0.9 + (4.0 + 11.5) / 2 * 5.0
+    assert idealised_yield(smooth, 6.0, 0.8) == pytest.approx(
+        min((2 * area_s - 11.5 * 6.0) / (ky_s * 6.0 - 11.5), 11.5 / ky_s), rel=1e-12)
+
+
 def test_takeda_parameters_and_histories_are_checked():
     with pytest.raises(InputDataError, match="mc < my"):
         TakedaParameters(k0=10.0, mc=5.0, my=4.0, theta_y=1.0, kp=0.2)
@@ -275,6 +307,32 @@ def test_takeda_draws_hold_the_truth_and_narrow_with_the_noise():
     # at 10 % noise: DF to about ±1.6 %, the stiffness and My ±0.8 %, c ±3.4 %
     assert np.all(w_hi < [0.03, 0.02, 0.02, 0.06]), w_hi
     np.testing.assert_allclose(w_lo / w_hi, 0.3, rtol=0.35)
+
+
+def test_a_takeda_yield_far_below_the_designs_yield_rotation_is_refused():
+    """A Takeda fit that passes the yield test at a yield rotation under
+    ``MIN_YIELD_ROTATION_SHARE`` (0.3) of the design's ``fy/k1`` is a crack taken for a
+    yield point: not yielded, DF at most 1, in the fit and in every draw."""
+    from pier_monitor.core.identify.families import MIN_YIELD_ROTATION_SHARE
+    arrays, ch = _takeda_section(0.1, 0)
+    assert ch.yielded[0] and ch.ductility_factor[0] > 2.5
+    ty_fit = ch.sections[0].fits["takeda"].params["theta_y"]
+    start = SpringFit(5e8, 2e7, 7e6, 2e6, True, 1.0, 1.0, 0)
+    sd = 0.1 * float(np.std(arrays[2]))
+    # a design yield rotation 0.9 / 0.3 times the fit's: within the share, kept
+    kept = fit_families(*arrays, np.array([sd ** 2]), (start,),
+                        design_yield_rotation=np.array([0.9 * ty_fit / MIN_YIELD_ROTATION_SHARE]))
+    assert kept.yielded[0] and not kept.sections[0].yield_refused
+    assert kept.ductility_factor[0] == pytest.approx(ch.ductility_factor[0], rel=1e-12)
+    refused = fit_families(*arrays, np.array([sd ** 2]), (start,),
+                           design_yield_rotation=np.array([1.1 * ty_fit / MIN_YIELD_ROTATION_SHARE]))
+    assert not refused.yielded[0] and refused.sections[0].yield_refused
+    assert refused.ductility_factor[0] == 1.0
+    d = takeda_draws(*arrays, refused, seed=0)
+    assert not d.yielded.any() and np.nanmax(d.ductility) <= 1.0
+    with pytest.raises(InputDataError, match="design_yield_rotation: expected 1"):
+        fit_families(*arrays, np.array([sd ** 2]), (start,),
+                     design_yield_rotation=np.ones(2))
 
 
 def test_takeda_draws_check_their_inputs():

@@ -1239,14 +1239,18 @@ def _p_overall_with_evidence(p: tuple[float, float, float] | None,
     """The members' probabilities of the worst section's state (intact, suspicious,
     damaged) with the self-check's evidence applied as the states apply it: where a
     diagnosed section has evidence the worst section is at least suspicious (the intact share
-    goes to suspicious); under a model misfit that leaves no section damaged (rules 8-9) the
-    damaged share, of members refitting a model that does not follow the pier, goes to
-    suspicious too.  None stays None (a single identification)."""
+    goes to suspicious); where no section stays damaged and either a model misfit (rules
+    8-9: members refitting a model that does not follow the pier) or a section's evidence
+    that its DF is not identified (rules 8, 10: a fit at a limit) capped the damaged calls,
+    the damaged share goes to suspicious too.  None stays None (a single
+    identification)."""
     if p is None:
         return None
+    diagnosed = [s for s in sections if is_diagnosis(s.damage_state)]
+    capped = misfit or any(_evidence_says_unidentified(s.evidence) for s in diagnosed)
     return _shares_to_suspicious(
-        p, intact=any(s.evidence for s in sections if is_diagnosis(s.damage_state)),
-        damaged=misfit and overall != DamageState.DAMAGED.name.lower())
+        p, intact=any(s.evidence for s in diagnosed),
+        damaged=capped and overall != DamageState.DAMAGED.name.lower())
 
 
 def overall_state(sections: tuple[SectionResult, ...]) -> str:

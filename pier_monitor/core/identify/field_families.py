@@ -27,8 +27,9 @@ reconstruction passes its skeleton's yield point, holding it below yield (``θy`
 ``max(yield_chi2, 2 log n_eff)`` and by more than :data:`YIELD_SHARE` of what the fit
 leaves, and its yield rotation is at least :data:`MIN_YIELD_ROTATION_SHARE` of the design's
 ``fy/k1``; otherwise its DF is at most 1.  Starts: the equation-error Takeda fit of the
-angles the accelerations give (integrated and detrended), then a few uniform ones; one
-bounded least-squares refinement of the best (each spring's columns of the Jacobian
+angles the accelerations give (integrated and detrended), then a few uniform ones; bounded
+least-squares refinements of the equation-error start and of the :data:`REFINED_STARTS` best
+of the others by their cost, the lowest end kept (each spring's columns of the Jacobian
 integrate that spring alone).
 """
 
@@ -43,8 +44,8 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.ensemble import EnsembleDraws
 from pier_monitor.core.identify.equation_error import SpringFit
 from pier_monitor.core.identify.families import (
-    N_PARAMS, FamilyChoice, FamilyFit, SectionFamilies, _PRIOR_SD, _TAK_HI, _TAK_LO,
-    fit_section_families, takeda_member)
+    MIN_YIELD_ROTATION_SHARE, N_PARAMS, FamilyChoice, FamilyFit, SectionFamilies, _PRIOR_SD,
+    _TAK_HI, _TAK_LO, fit_section_families, takeda_member)
 from pier_monitor.core.identify.field import (FieldFit, FieldSettings, _FieldProblem,
                                               _smooth_derivative)
 from pier_monitor.core.ingest.window import MeasuredWindow
@@ -53,24 +54,32 @@ from pier_monitor.core.model.springs import (
     _takeda_step, bilinear_skeleton, idealised_yield, takeda_skeleton,
     takeda_unloading_stiffness, yield_peak_fraction)
 
-__all__ = ["MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "YIELD_SHARE", "damped_takeda",
-           "fit_field_families"]
+__all__ = ["MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "REFINED_STARTS", "YIELD_SHARE",
+           "damped_takeda", "fit_field_families"]
+
+#: Uniform starts refined by least squares beside the equation-error start, the lowest-cost
+#: ones.  A heavy shaking's reconstruction has many local minima: refining only the start of
+#: lowest cost left chi-squares of 88 and 93 times the independent samples (tuning seeds 622,
+#: Table 1 pier, and 629, E-Defense, strong shakings, accelerometers at every level), so
+#: the bilinear was kept and the yielded base read DF 1.0 against a true 3.85 and 2.19; the
+#: equation-error start and the next best found 8.6 and 1.9 times, and DF 3.64 and 2.25.
+REFINED_STARTS = 3
 
 #: The Takeda reconstruction decides only when its chi-square is at most this many times its
-#: independent samples (a reconstruction within about 4.5 times the misfit floor); where it
+#: independent samples (a reconstruction within about 6 times the misfit floor); where it
 #: stays far from the data (χ²/n_eff ≈ 190 on the sparse layout of E-Defense, strong, seed
 #: 302, against 3.8 with every level's accelerometer) its DF is no better than the
-#: bilinear's.
-MAX_CHI2_PER_NEFF = 20.0
+#: bilinear's.  Was 20; on the held-out suite's tuning draws (seeds 620-638, Takeda springs,
+#: accelerometers at every level, strong shakings) the reconstructions at 16-24 times gave
+#: the base's DF within 10 % of the truth where the bilinear kept read 1.0 (E-Defense, El
+#: Centro, seed 633: 24.3 times, DF 4.1 against 3.7, the bilinear 0.99), those at 88-212
+#: times DFs of 0.07-0.3 for yielded bases.
+MAX_CHI2_PER_NEFF = 40.0
 #: Share of the Takeda reconstruction's remaining chi-square that holding a spring below
 #: yield must add for it to count as yielded (the bilinear reconstruction asks twice,
 #: ``FieldSettings.yield_share``; a yielded Takeda spring of table1, strong shaking, gained
 #: 1.4 times).
 YIELD_SHARE = 1.0
-#: A spring counts as yielded only with a yield rotation at least this share of the design's
-#: ``fy/k1``: an upper spring of E-Defense (true DF 0.88) reached a "yield" rotation of 0.08
-#: times the design's with a large chi-square gain (a cracked branch taken for a yield point).
-MIN_YIELD_ROTATION_SHARE = 0.3
 
 
 @jit
@@ -456,9 +465,17 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     costs = [float(np.sum(res_joint(z) ** 2)) for z in starts]
     scales = np.r_[np.tile([0.05, 0.1, 0.02, 0.02, 0.005, 0.05, 0.05, 0.1], n),
                    np.full(n_eps, 0.2 * pb.gain_sd)]
-    sol = optimize.least_squares(res_joint, starts[int(np.argmin(costs))], jac=jac_joint,
-                                 bounds=(lo_f, hi_f), x_scale=scales, tr_solver="lsmr",
-                                 max_nfev=settings.max_nfev)
+    # the equation-error start (index 0 where there is one) and the best of the others
+    first = 1 if ee is not None else 0
+    refined = list(range(first)) + [first + int(k) for k in
+                                    np.argsort(costs[first:])[:REFINED_STARTS]]
+    sol = None
+    for k in refined:
+        trial = optimize.least_squares(res_joint, starts[k], jac=jac_joint,
+                                       bounds=(lo_f, hi_f), x_scale=scales, tr_solver="lsmr",
+                                       max_nfev=settings.max_nfev)
+        if sol is None or trial.cost < sol.cost:
+            sol = trial
     q, eps = unpack(sol.x.copy())
     g = pb.moments(eps)
     theta, moment = tf.angles(q, g)

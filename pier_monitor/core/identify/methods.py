@@ -705,7 +705,9 @@ def _choose_family(window: MeasuredWindow, fit: Any, theta: np.ndarray) -> Famil
     _, theta_dot, g = _family_arrays(window)
     noise_var = moment_noise_variance(window.geometry, window.noise, fit.params.k1,
                                       fit.params.c)
-    return fit_families(theta, theta_dot, g, noise_var, fit.springs)
+    design = window.design
+    return fit_families(theta, theta_dot, g, noise_var, fit.springs,
+                        design_yield_rotation=np.asarray(design.fy) / np.asarray(design.k1))
 
 
 def _takeda_draws(window: MeasuredWindow, family: FamilyChoice,
