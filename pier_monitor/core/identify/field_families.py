@@ -70,10 +70,11 @@ REFINED_STARTS = 3
 #: stays far from the data (χ²/n_eff ≈ 190 on the sparse layout of E-Defense, strong, seed
 #: 302, against 3.8 with every level's accelerometer) its DF is no better than the
 #: bilinear's.  Was 20; on the held-out suite's tuning draws (seeds 620-638, Takeda springs,
-#: accelerometers at every level, strong shakings) the reconstructions at 16-24 times gave
-#: the base's DF within 10 % of the truth where the bilinear kept read 1.0 (E-Defense, El
-#: Centro, seed 633: 24.3 times, DF 4.1 against 3.7, the bilinear 0.99), those at 88-212
-#: times DFs of 0.07-0.3 for yielded bases.
+#: accelerometers at every level, strong shakings) the one reconstruction between 20 and 40
+#: times (E-Defense, El Centro, seed 633: 24.3 times) read the base's DF 4.1 against a true
+#: 3.7 where the bilinear kept read 0.99; those at 16-19 times read it 5-8 % off (seeds
+#: 628, 637), and those at 88-212 times (before the refined starts) 0.07-0.3 for yielded
+#: bases.
 MAX_CHI2_PER_NEFF = 40.0
 #: Share of the Takeda reconstruction's remaining chi-square that holding a spring below
 #: yield must add for it to count as yielded (the bilinear reconstruction asks twice,
