@@ -72,9 +72,9 @@ REFINED_STARTS = 3
 #: bilinear's.  Was 20; on the held-out suite's tuning draws (seeds 620-638, Takeda springs,
 #: accelerometers at every level, strong shakings) the one reconstruction between 20 and 40
 #: times (E-Defense, El Centro, seed 633: 24.3 times) read the base's DF 4.1 against a true
-#: 3.7 where the bilinear kept read 0.99; those at 16-19 times read it 5-8 % off (seeds
-#: 628, 637), and those at 88-212 times (before the refined starts) 0.07-0.3 for yielded
-#: bases.
+#: 3.7 where the bilinear kept read 0.99; those at 16-19 times read it 5-8 % off (Table 1,
+#: seeds 628, 637) and 28 % (seed 633, a base at DF 9.6), and those at 88-212 times (before
+#: the refined starts) 0.07-0.3 for yielded bases.
 MAX_CHI2_PER_NEFF = 40.0
 #: Share of the Takeda reconstruction's remaining chi-square that holding a spring below
 #: yield must add for it to count as yielded (the bilinear reconstruction asks twice,
