@@ -93,8 +93,10 @@ TUNING = {
                                  "(events._models_misfit): seen on the rc suite's held-out "
                                  "seed 302 and tuning seeds 300-301 (BWBN, Table 1, full "
                                  "layout); no threshold was tuned"),
-    "field_takeda_heavy_shakings": ("field_families.REFINED_STARTS 3 and MAX_CHI2_PER_NEFF "
-                                    "40 (was 1 and 20), springs.TAKEDA_NOMINAL_DUCTILITY 4, "
+    "field_takeda_heavy_shakings": ("field_families.REFINED_STARTS 3, MAX_CHI2_PER_NEFF "
+                                    "40 and YIELD_SHARE 0.2 (were 1, 20 and 1.0; the yield "
+                                    "share on seeds 620-656), "
+                                    "springs.TAKEDA_NOMINAL_DUCTILITY 4, "
                                     "families.MIN_YIELD_ROTATION_SHARE on the equation-error "
                                     "route: heldout_case draws with Takeda springs, tuning "
                                     "seeds 620-638 (both piers, full and accel); the RC seeds "

@@ -78,9 +78,14 @@ REFINED_STARTS = 3
 MAX_CHI2_PER_NEFF = 40.0
 #: Share of the Takeda reconstruction's remaining chi-square that holding a spring below
 #: yield must add for it to count as yielded (the bilinear reconstruction asks twice,
-#: ``FieldSettings.yield_share``; a yielded Takeda spring of table1, strong shaking, gained
-#: 1.4 times).
-YIELD_SHARE = 1.0
+#: ``FieldSettings.yield_share``).  Was 1.0; chosen on the held-out suite's tuning draws
+#: (seeds 620-656, Takeda springs, both piers, accelerometers at every level; 83 yield
+#: tests): the sections whose reinforcement yielded gained 0.30-400 times (one at a true DF
+#: of 1.15 gained 0.06), those that stayed elastic and passed the yield-rotation test at
+#: most 0.14 times, but one (E-Defense, seed 645, section 2, true DF 0.98: 34 times, DF
+#: 1.13).  Section 2 of the Table 1 pier, true DF 1.28-4.98, gained 0.30-1.0 times in six
+#: draws and read DF <= 1 with 1.0.
+YIELD_SHARE = 0.2
 
 
 @jit
