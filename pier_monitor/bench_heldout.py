@@ -51,7 +51,7 @@ __all__ = ["true_ductility", "identify_default", "identify_rc_case", "heldout_pi
 #: Seeds of the suite; nothing in the product was chosen on them.
 HELDOUT_SEEDS = (600, 601, 602, 603)
 #: Seeds of the RC (modified-Takeda) cases: 610, then 611-618 registered before the field
-#: route's Takeda reconstruction was tuned for heavy shakings (on tuning seeds 620-638 of
+#: route's Takeda reconstruction was tuned for heavy shakings (on tuning seeds 620-656 of
 #: :func:`heldout_case`, never on these).
 HELDOUT_RC_SEEDS = (610, 611, 612, 613, 614, 615, 616, 617, 618)
 #: What was tuned in the product, and on which cases/seeds (none of them is scored here).
@@ -93,11 +93,13 @@ TUNING = {
                                  "(events._models_misfit): seen on the rc suite's held-out "
                                  "seed 302 and tuning seeds 300-301 (BWBN, Table 1, full "
                                  "layout); no threshold was tuned"),
-    "field_takeda_heavy_shakings": ("field_families.REFINED_STARTS 3 and MAX_CHI2_PER_NEFF "
-                                    "40 (was 1 and 20), springs.TAKEDA_NOMINAL_DUCTILITY 4, "
+    "field_takeda_heavy_shakings": ("field_families.REFINED_STARTS 3, MAX_CHI2_PER_NEFF "
+                                    "40 and YIELD_SHARE 0.2 (were 1, 20 and 1.0; the yield "
+                                    "share on seeds 620-656), "
+                                    "springs.TAKEDA_NOMINAL_DUCTILITY 4, "
                                     "families.MIN_YIELD_ROTATION_SHARE on the equation-error "
                                     "route: heldout_case draws with Takeda springs, tuning "
-                                    "seeds 620-638 (both piers, full and accel); the RC seeds "
+                                    "seeds 620-656 (both piers, full and accel); the RC seeds "
                                     "611-618 were registered before and never looked at"),
 }
 #: Log-normal spread (σ of the natural log) of the design values around the truth.

@@ -472,8 +472,8 @@ def idealised_yield(skel: Skeleton, theta_peak: float, min_yield_fraction: float
     ``min(θp, n θ'y)`` (``n`` = :data:`TAKEDA_NOMINAL_DUCTILITY`) where the skeleton has a
     cracked branch (:data:`TAKEDA_CRACKED_RATIO`), else ``Mp``: the first-yield corner of
     a trilinear fitted to a smooth skeleton sits on the cracked curve below first yield, so
-    the secant to it is too stiff and ``θ*`` too small; a skeleton whose corner is first yield and whose peak moment is
-    below ``My / f`` is unaffected.  The default (0) is the definition itself: the truths
+    the secant to it is too stiff and ``θ*`` too small; a skeleton whose corner is first
+    yield and whose (nominal) peak moment is below ``My / f`` is unaffected.  The default (0) is the definition itself: the truths
     (:func:`pier_monitor.core.synthetic.rc.idealised_yield_rotation`, the fiber column's
     pushover skeleton) use it.
 
