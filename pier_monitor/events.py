@@ -199,11 +199,10 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
         return EventOutcome(window=window, result=failed, out_dir=out_dir,
                             window_file=window_file, paths=None)
     checked = _checked_params(run.result, window)
-    family = (run.result.family or {}).get("family", "bilinear")
+    bilinear = (run.result.family or {}).get("family") in (None, "bilinear")  # as rule 8
     reasons = check_identification(
         checked, run.reproduced, window, sections_apart=True, misfits_apart=True,
-        ductility=(None if family == "bilinear"
-                   else np.array([s.ductility_factor for s in run.result.sections])))
+        ductility=None if bilinear else run.result.ductility_factors)
     check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a)
     misfit = check.misfit.as_dict()
     evidence = list(check.evidence)

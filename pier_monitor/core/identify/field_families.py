@@ -494,7 +494,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     # neighbours (a yielding spring can stand in for a stiffer or softer neighbour)
     yielded = np.zeros(n, dtype=bool)
     log_neff = float(np.log(tf.n_eff))
-    theta_y_design = np.asarray(design.fy, dtype=float) / np.asarray(design.k1, dtype=float)
+    theta_y_design = design.yield_angles
     for i in range(n):
         if peak[i] <= tf.params(q, i).theta_y:
             continue

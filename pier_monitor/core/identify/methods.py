@@ -705,9 +705,8 @@ def _choose_family(window: MeasuredWindow, fit: Any, theta: np.ndarray) -> Famil
     _, theta_dot, g = _family_arrays(window)
     noise_var = moment_noise_variance(window.geometry, window.noise, fit.params.k1,
                                       fit.params.c)
-    design = window.design
     return fit_families(theta, theta_dot, g, noise_var, fit.springs,
-                        design_yield_rotation=np.asarray(design.fy) / np.asarray(design.k1))
+                        design_yield_rotation=window.design.yield_angles)
 
 
 def _takeda_draws(window: MeasuredWindow, family: FamilyChoice,

@@ -291,23 +291,26 @@ def simulate_identified(window: MeasuredWindow, params: SpringParameters, *,
     return sim
 
 
-def _systematic_share(residual: np.ndarray, response: np.ndarray, dt: float) -> float:
-    """``R²`` of the residual (T,) fitted by the responses ``response`` (T, M) — the
-    identified model's simulated history of the quantity at every measured level — their
-    derivatives and integrals."""
-    r = residual - residual.mean()
-    energy = float(r @ r)
-    if energy <= 0:
-        return 0.0
+def _response_columns(response: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """The regressors of :func:`_systematic_share` from responses ``response`` (T, M): each
+    response, its derivative and its integral (means removed), ``(T, 3M)`` in that order,
+    scaled to unit norm, and which of them are not all zero ``(3M,)``."""
     y = response - response.mean(axis=0)
     iy = np.cumsum(y, axis=0) * dt
     iy -= iy.mean(axis=0)
     cols = np.concatenate([y, np.gradient(y, dt, axis=0), iy], axis=1)
     norms = np.linalg.norm(cols, axis=0)
-    keep = norms > 0
-    if not keep.any():
+    nonzero = norms > 0
+    return cols / np.where(nonzero, norms, 1.0), nonzero
+
+
+def _systematic_share(residual: np.ndarray, cols: np.ndarray) -> float:
+    """``R²`` of the residual (T,) fitted by the unit-norm regressors ``cols`` (T, K)
+    (:func:`_response_columns`)."""
+    r = residual - residual.mean()
+    energy = float(r @ r)
+    if energy <= 0 or cols.shape[1] == 0:
         return 0.0
-    cols = cols[:, keep] / norms[keep]
     coef, *_ = np.linalg.lstsq(cols, r, rcond=None)
     fitted = cols @ coef
     return float(np.clip((fitted @ fitted) / energy, 0.0, 1.0))
@@ -344,14 +347,20 @@ def model_misfit(window: MeasuredWindow, params: SpringParameters,
         simulated = np.asarray(getattr(sim, q))[:, levels]
         finite = bool(np.all(np.isfinite(simulated)))
         measured = np.asarray(getattr(window, q))[:, levels]
+        # the regressors of every level's share, once: the model's response at every
+        # measured level and the measured ones (T, 3 * 2L)
+        if finite:
+            cols, nonzero = _response_columns(np.concatenate([simulated, measured], axis=1),
+                                              window.dt)
         for lv, meas, res, scale, misfit, sigma in level_misfits(
                 getattr(window, q), getattr(sim, q), getattr(window.noise, q), covered):
             noise_rel = math.hypot(sigma / scale, gain)
             # the model's response everywhere and the other levels' measurements: not the
             # level's own measurement, which holds its sensor's fault
-            response = np.concatenate([simulated, measured[:, levels != lv]], axis=1)
-            share = (_systematic_share(res, response, window.dt)
-                     if math.isfinite(misfit) and finite else 1.0)
+            share = 1.0
+            if math.isfinite(misfit) and finite:
+                use = np.tile(np.r_[np.ones(levels.size, dtype=bool), levels != lv], 3)
+                share = _systematic_share(res, cols[:, use & nonzero])
             offset = (_moving_mean_rms(res, int(round(lim.offset_span_s / window.dt))) / scale
                       if q == "a" else 0.0)
             entries.append(MisfitEntry(level=int(lv + 1), quantity=_NAMES[q], misfit=misfit,

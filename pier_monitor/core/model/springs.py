@@ -497,10 +497,13 @@ def idealised_yield(skel: Skeleton, theta_peak: float, min_yield_fraction: float
     if tp <= ty:
         return ty
     mp = float(skel(tp))
-    k_init = float(skel.moment[1] / skel.theta[1])
-    cracked = ty > skel.theta[1] and k_init >= TAKEDA_CRACKED_RATIO * skel.m_first_yield / ty
-    mn = float(skel(min(tp, TAKEDA_NOMINAL_DUCTILITY * ty))) if cracked else mp
-    te = min(max(ty, _rotation_at(skel, f * mn)), tp) if f > 0 else ty
+    te = ty
+    if f > 0:  # the floor: f of the nominal moment, on a skeleton with a cracked branch
+        k_init = float(skel.moment[1] / skel.theta[1])
+        cracked = (ty > skel.theta[1]
+                   and k_init >= TAKEDA_CRACKED_RATIO * skel.m_first_yield / ty)
+        mn = float(skel(min(tp, TAKEDA_NOMINAL_DUCTILITY * ty))) if cracked else mp
+        te = min(max(ty, _rotation_at(skel, f * mn)), tp)
     ky = float(skel(te)) / te
     den = ky * tp - mp
     # Just past first yield a skeleton stiffer than k_y below yield (the uncracked branch)
