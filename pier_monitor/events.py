@@ -221,7 +221,8 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
         result = result.with_cumulative_ductility(baseline, store.peak_rotations_before(window))
     run = replace(run, result=result.with_evidence(
         check.energy_index, evidence, misfit,
-        fit_limits=section_fit_limits(checked, window)))
+        fit_limits=section_fit_limits(checked, window),
+        measured_levels=window.coverage.acceleration | window.coverage.displacement))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,
