@@ -324,8 +324,8 @@ def test_under_a_model_misfit_sections_no_sensor_tells_apart_share_their_damage(
     section 2, and sections 3 and 4, each a span whose rotations no sensor tells apart.
     Under a model misfit, the base and section 2, damaged on DF intervals clear of 1.5, are
     suspicious with their DF not identified, and so is the span where only section 4 yielded
-    (section 3 is not intact); with every level measured, or without a misfit, the damaged
-    calls stand."""
+    (section 3 is not intact); the same with a Takeda family and no misfit; with every level
+    measured, or bilinear springs without a misfit, the damaged calls stand."""
     window, truth, _ = cases[1]
     _, misfit = softer
     p = (0.0, 0.0, 1.0)
@@ -362,9 +362,13 @@ def test_under_a_model_misfit_sections_no_sensor_tells_apart_share_their_damage(
                               measured_levels=np.ones(4, dtype=bool))
     assert [s.state for s in every.sections][:2] == ["damaged", "damaged"]
     assert every.sections[2].state == "intact"
-    clean = own.with_evidence(np.zeros(4), [()] * 4, model_misfit(window, truth).as_dict(),
-                              measured_levels=three_levels)
-    assert [s.state for s in clean.sections] == [s.state for s in own.sections]
+    clean_misfit = model_misfit(window, truth).as_dict()
+    assert clean_misfit["kind"] != "model"
+    takeda = own.with_evidence(np.zeros(4), [()] * 4, clean_misfit, measured_levels=three_levels)
+    assert [s.state for s in takeda.sections] == ["suspicious"] * 4
+    bilinear = dataclasses.replace(own, family={"family": "bilinear"}).with_evidence(
+        np.zeros(4), [()] * 4, clean_misfit, measured_levels=three_levels)
+    assert [s.state for s in bilinear.sections] == [s.state for s in own.sections]
     with pytest.raises(InputDataError, match="measured levels: expected 4 entries"):
         own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
                           measured_levels=three_levels[:3])
