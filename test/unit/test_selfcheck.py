@@ -11,7 +11,7 @@ import pytest
 from pier_monitor.core.errors import InputDataError
 
 from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DAMAGED,
-                                               SPLIT_UNMEASURED,
+                                               SPLIT_UNMEASURED, split_unmeasured_evidence,
                                                IdentificationResult, build_sections,
                                                overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
@@ -372,6 +372,24 @@ def test_under_a_model_misfit_sections_no_sensor_tells_apart_share_their_damage(
     with pytest.raises(InputDataError, match="measured levels: expected 4 entries"):
         own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
                           measured_levels=three_levels[:3])
+
+
+def test_the_spans_no_sensor_splits_are_those_between_measured_levels():
+    """The Table 1 pier's three-level layout (levels 3 and 6 measured): sections 1-3 and 4-6
+    are the spans; the first, where section 2 shows DF 3.66 (the held-out suite's seed 616),
+    gets one line for all three, the second, where nothing yielded, none."""
+    lines = split_unmeasured_evidence([0.04, 3.66, 1.0, 0.68, 0.99, 0.96],
+                                      [False, True, False, False, False, False],
+                                      [False, False, True, False, False, True])
+    assert lines[0] == lines[1] == lines[2] and lines[3:] == [(), (), ()]
+    assert lines[0][0] == (f"{SPLIT_UNMEASURED}: no sensor between levels 0 and 3 tells the "
+                           "rotations of sections 1-3 apart, and the springs are not the "
+                           "pier's (section 2 DF 3.66): damage anywhere in this span, its DF "
+                           "not identified")
+    # every level measured: no span of two sections
+    assert split_unmeasured_evidence([3.0, 2.0], [True, True], [True, True]) == [(), ()]
+    with pytest.raises(InputDataError, match="yielded: expected 2 entries"):
+        split_unmeasured_evidence([3.0, 2.0], [True], [True, True])
 
 
 def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(

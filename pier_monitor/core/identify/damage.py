@@ -287,7 +287,8 @@ def _evidence_says_unidentified(evidence: Sequence[str]) -> bool:
                for e in evidence)
 
 
-def split_unmeasured_evidence(sections: Sequence[SectionResult],
+def split_unmeasured_evidence(ductility: Sequence[float] | np.ndarray,
+                              yielded: Sequence[bool] | np.ndarray,
                               measured_levels: Sequence[bool] | np.ndarray
                               ) -> list[tuple[str, ...]]:
     """Rule 11's evidence per section: one line for each section of a span whose inner
@@ -297,8 +298,11 @@ def split_unmeasured_evidence(sections: Sequence[SectionResult],
 
     Parameters
     ----------
-    sections : sequence of SectionResult, N of them
-        The sections, from the base up (section ``i`` spans levels ``i - 1`` to ``i``).
+    ductility : sequence of float, shape (N,)
+        The DF each section shows, from the base up (section ``i`` spans levels ``i - 1``
+        to ``i``).
+    yielded : sequence of bool, shape (N,)
+        Whether each section is reported yielded.
     measured_levels : sequence of bool, shape (N,)
         Whether level ``i`` (1..N; the foundation, level 0, always is) has a sensor of its
         motion (an accelerometer or a displacement sensor).
@@ -306,10 +310,13 @@ def split_unmeasured_evidence(sections: Sequence[SectionResult],
     Raises
     ------
     InputDataError
-        If ``measured_levels`` does not have one entry per section.
+        If ``yielded`` or ``measured_levels`` does not have one entry per DF.
     """
+    df = np.asarray(ductility, dtype=float)
     measured = np.asarray(measured_levels, dtype=bool)
-    n = len(sections)
+    n = df.size
+    if np.shape(yielded) != (n,):
+        raise InputDataError(f"yielded: expected {n} entries, got shape {np.shape(yielded)}")
     if measured.shape != (n,):
         raise InputDataError(f"measured levels: expected {n} entries, got shape "
                              f"{measured.shape}")
@@ -322,10 +329,10 @@ def split_unmeasured_evidence(sections: Sequence[SectionResult],
         first = i + 1
         if len(span) < 2:
             continue
-        shown = [j for j in span if sections[j].yielded or sections[j].ductility_factor > 1.0]
+        shown = [j for j in span if yielded[j] or df[j] > 1.0]
         if not shown:
             continue
-        dfs = ", ".join(f"section {j + 1} DF {sections[j].ductility_factor:.2f}" for j in shown)
+        dfs = ", ".join(f"section {j + 1} DF {df[j]:.2f}" for j in shown)
         line = (f"{SPLIT_UNMEASURED}: no sensor between levels {span[0]} and {span[-1] + 1} "
                 f"tells the rotations of sections {span[0] + 1}-{span[-1] + 1} apart, and the "
                 f"springs are not the pier's ({dfs}): damage anywhere in this span, its DF "
@@ -1041,7 +1048,9 @@ class IdentificationResult:
         misfit = _is_model_misfit(model_misfit)
         rc_family = (self.family or {}).get("family") not in (None, "bilinear")
         split = ([()] * n if not (misfit or rc_family) or measured_levels is None
-                 else split_unmeasured_evidence(self.sections, measured_levels))
+                 else split_unmeasured_evidence(
+                     [x.ductility_factor for x in self.sections],
+                     [x.yielded for x in self.sections], measured_levels))
         sections = []
         for s, e, ev, lim, sp in zip(self.sections, energy, evidence, limits, split):
             ev = tuple(str(r) for r in ev)
