@@ -26,7 +26,7 @@ from pier_monitor.bench_fiber import bench_fiber
 from pier_monitor.store import ResultsStore
 from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
 from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
-from pier_monitor.core.identify.damage import ductility_factors
+from pier_monitor.core.identify.damage import ductility_factors, split_unmeasured_evidence
 from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, ENERGY_INDEX_MISFIT,
@@ -459,6 +459,9 @@ def _selfcheck_entry(run: IdentificationRun, window: MeasuredWindow, theta_true:
            "df": [float(v) for v in run.result.ductility_factors],
            "states": [s.state for s in run.result.sections],
            "family": (run.result.family or {}).get("family"),
+           "yielded": [bool(s.yielded) for s in run.result.sections],
+           "measured_levels": [bool(v) for v in
+                               window.coverage.acceleration | window.coverage.displacement],
            # the lower end of each section's 90 % DF interval (None: no interval), which
            # rule 9 reads under a model misfit
            "df_lo": [None if s.uncertainty is None or s.uncertainty.members < 2
@@ -559,9 +562,12 @@ def _judged(run: dict[str, Any], limits: MisfitLimits) -> str:
 def _checked_states(run: dict[str, Any], limits: MisfitLimits) -> list[str]:
     """The states of a run after its self-check under ``limits`` (``identify_window``'s
     rules): every section unreliable for a sensor's misfit, else at least suspicious where
-    the evidence says so, and under a model misfit damaged only on a DF interval clear of
-    1.5 of springs other than the bilinear (rules 8 and 9 of
-    :mod:`~pier_monitor.core.identify.damage`; rule 10 is not modelled)."""
+    the evidence says so, under a model misfit damaged only on a DF interval clear of 1.5
+    of springs other than the bilinear (rules 8 and 9 of
+    :mod:`~pier_monitor.core.identify.damage`), and the sections of a span no sensor splits
+    neither intact where one yielded nor damaged under a model misfit or a
+    reinforced-concrete family (rule 11, :func:`~pier_monitor.core.identify.damage.
+    split_unmeasured_evidence`); rule 10 is not modelled."""
     kind = _judged(run, limits)
     if kind == "sensor":
         return ["unreliable"] * len(run["states"])
@@ -580,6 +586,10 @@ def _checked_states(run: dict[str, Any], limits: MisfitLimits) -> list[str]:
         lows = run.get("df_lo") or [None] * len(states)
         states = ["suspicious" if st == "damaged" and (bilinear or lo is None or lo < DAMAGED_DF)
                   else st for st, lo in zip(states, lows)]
+    if (misfit.kind == "model" or run.get("family") not in (None, "bilinear")) \
+            and run.get("measured_levels") is not None:
+        split = split_unmeasured_evidence(run["df"], run["yielded"], run["measured_levels"])
+        states = ["suspicious" if sp and st in order else st for st, sp in zip(states, split)]
     return states
 
 

@@ -101,6 +101,11 @@ TUNING = {
                                     "route: heldout_case draws with Takeda springs, tuning "
                                     "seeds 620-656 (both piers, full and accel); the RC seeds "
                                     "611-618 were registered before and never looked at"),
+    "field_takeda_sparse": ("the field route's Takeda reconstruction also on the sparse "
+                            "layout, and its further starts where the best leaves it over "
+                            "the chi-square limit: heldout_case draws, tuning seeds 620-645 "
+                            "(both piers, sparse, Takeda and bilinear springs); the RC seeds "
+                            "610-618 never looked at with it"),
 }
 #: Log-normal spread (σ of the natural log) of the design values around the truth.
 DESIGN_LOG_SD = 0.25

@@ -146,6 +146,9 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
        a misfit at one level that the response does not explain (a sensor's) makes the
        result unreliable; a model misfit, a large hysteretic energy make sections at least
        suspicious (:meth:`IdentificationResult.with_evidence`), never a reliable intact.
+       Sections whose rotations no sensor tells apart (a level between them unmeasured)
+       share their damage under a model misfit or a reinforced-concrete family: none
+       intact where one yielded, none damaged on its own DF (rule 11).
        ``result.json`` holds the misfit (``model_misfit``) and each section's
        ``energy_index`` and ``evidence``.
     5. With a baseline, each section's DF is the cumulative one, on the virgin section's
@@ -221,7 +224,8 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
         result = result.with_cumulative_ductility(baseline, store.peak_rotations_before(window))
     run = replace(run, result=result.with_evidence(
         check.energy_index, evidence, misfit,
-        fit_limits=section_fit_limits(checked, window)))
+        fit_limits=section_fit_limits(checked, window),
+        measured_levels=window.coverage.acceleration | window.coverage.displacement))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,

@@ -11,6 +11,7 @@ import pytest
 from pier_monitor.core.errors import InputDataError
 
 from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DAMAGED,
+                                               SPLIT_UNMEASURED, split_unmeasured_evidence,
                                                IdentificationResult, build_sections,
                                                overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
@@ -315,6 +316,80 @@ def test_a_section_whose_fit_ended_at_a_limit_is_suspicious_and_the_others_stand
     capped = only.with_evidence(np.zeros(4), [()] * 4, clean, fit_limits=limits)
     assert capped.overall_state == "suspicious"
     assert capped.p_overall_state == pytest.approx((0.0, 1.0, 0.0))
+
+
+def test_under_a_model_misfit_sections_no_sensor_tells_apart_share_their_damage(
+        cases, softer):
+    """Rule 11: levels 1 and 3 without a sensor (the three-level layout) leave the base and
+    section 2, and sections 3 and 4, each a span whose rotations no sensor tells apart.
+    Under a model misfit, the base and section 2, damaged on DF intervals clear of 1.5, are
+    suspicious with their DF not identified, and so is the span where only section 4 yielded
+    (section 3 is not intact); the same with a Takeda family and no misfit; with every level
+    measured, or bilinear springs without a misfit, the damaged calls stand."""
+    window, truth, _ = cases[1]
+    _, misfit = softer
+    p = (0.0, 0.0, 1.0)
+    own = _result(window, truth, (3.0, 1.8, 0.5, 1.3), family={"family": "takeda"},
+                  p_overall_state=p)
+    sec = list(own.sections)
+    for i, df in ((0, Spread(3.0, 0.1, 2.85, 3.15)), (1, Spread(1.8, 0.1, 1.62, 1.98))):
+        sec[i] = dataclasses.replace(sec[i], uncertainty=_base_uncertainty(df, p))
+    own = dataclasses.replace(own, sections=tuple(sec))
+    assert [s.state for s in own.sections] == ["damaged", "damaged", "intact", "suspicious"]
+    three_levels = np.array([False, True, False, True])
+    result = own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
+                               measured_levels=three_levels)
+    assert [s.state for s in result.sections] == ["suspicious"] * 4
+    assert result.overall_state == "suspicious"
+    base, third = result.sections[0], result.sections[2]
+    assert base.evidence[-1].startswith(
+        f"{SPLIT_UNMEASURED}: no sensor between levels 0 and 2 tells the rotations of "
+        "sections 1-2 apart")
+    assert "section 1 DF 3.00, section 2 DF 1.80" in base.evidence[-1]
+    assert third.evidence[-1].startswith(f"{SPLIT_UNMEASURED}: no sensor between levels 2 "
+                                         "and 4") and "section 4 DF 1.30" in third.evidence[-1]
+    assert all("DF" in s.poorly_identified for s in result.sections)
+    assert base.reasons[-2] == ("DF not identified (its rotation is not told apart from its "
+                                "neighbours'): not called damaged on it")
+    assert base.uncertainty.p_state == pytest.approx((0.0, 1.0, 0.0))
+    assert result.p_overall_state == pytest.approx((0.0, 1.0, 0.0))
+    # read back and decided again: the evidence stays
+    again = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
+        truth.k1, "design values")
+    assert [s.state for s in again.sections] == ["suspicious"] * 4
+    # every level measured, or no model misfit: the damaged calls stand
+    every = own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
+                              measured_levels=np.ones(4, dtype=bool))
+    assert [s.state for s in every.sections][:2] == ["damaged", "damaged"]
+    assert every.sections[2].state == "intact"
+    clean_misfit = model_misfit(window, truth).as_dict()
+    assert clean_misfit["kind"] != "model"
+    takeda = own.with_evidence(np.zeros(4), [()] * 4, clean_misfit, measured_levels=three_levels)
+    assert [s.state for s in takeda.sections] == ["suspicious"] * 4
+    bilinear = dataclasses.replace(own, family={"family": "bilinear"}).with_evidence(
+        np.zeros(4), [()] * 4, clean_misfit, measured_levels=three_levels)
+    assert [s.state for s in bilinear.sections] == [s.state for s in own.sections]
+    with pytest.raises(InputDataError, match="measured levels: expected 4 entries"):
+        own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
+                          measured_levels=three_levels[:3])
+
+
+def test_the_spans_no_sensor_splits_are_those_between_measured_levels():
+    """The Table 1 pier's three-level layout (levels 3 and 6 measured): sections 1-3 and 4-6
+    are the spans; the first, where section 2 shows DF 3.66 (the held-out suite's seed 616),
+    gets one line for all three, the second, where nothing yielded, none."""
+    lines = split_unmeasured_evidence([0.04, 3.66, 1.0, 0.68, 0.99, 0.96],
+                                      [False, True, False, False, False, False],
+                                      [False, False, True, False, False, True])
+    assert lines[0] == lines[1] == lines[2] and lines[3:] == [(), (), ()]
+    assert lines[0][0] == (f"{SPLIT_UNMEASURED}: no sensor between levels 0 and 3 tells the "
+                           "rotations of sections 1-3 apart, and the springs are not the "
+                           "pier's (section 2 DF 3.66): damage anywhere in this span, its DF "
+                           "not identified")
+    # every level measured: no span of two sections
+    assert split_unmeasured_evidence([3.0, 2.0], [True, True], [True, True]) == [(), ()]
+    with pytest.raises(InputDataError, match="yielded: expected 2 entries"):
+        split_unmeasured_evidence([3.0, 2.0], [True], [True, True])
 
 
 def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(
