@@ -460,8 +460,7 @@ def _selfcheck_entry(run: IdentificationRun, window: MeasuredWindow, theta_true:
            "states": [s.state for s in run.result.sections],
            "family": (run.result.family or {}).get("family"),
            "yielded": [bool(s.yielded) for s in run.result.sections],
-           "measured_levels": [bool(v) for v in
-                               window.coverage.acceleration | window.coverage.displacement],
+           "measured_levels": [bool(v) for v in window.coverage.motion],
            # the lower end of each section's 90 % DF interval (None: no interval), which
            # rule 9 reads under a model misfit
            "df_lo": [None if s.uncertainty is None or s.uncertainty.members < 2

@@ -225,7 +225,7 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     run = replace(run, result=result.with_evidence(
         check.energy_index, evidence, misfit,
         fit_limits=section_fit_limits(checked, window),
-        measured_levels=window.coverage.acceleration | window.coverage.displacement))
+        measured_levels=window.coverage.motion))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,

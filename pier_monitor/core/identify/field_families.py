@@ -485,14 +485,14 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                    np.full(n_eps, 0.2 * pb.gain_sd)]
     # the equation-error start (index 0 where there is one) and the best of the others
     first = 1 if ee is not None else 0
-    refined = list(range(first)) + [first + int(k) for k in
-                                    np.argsort(costs[first:])[:REFINED_STARTS]]
+    ranked = [first + int(k) for k in np.argsort(costs[first:])]
+    refined = list(range(first)) + ranked[:REFINED_STARTS]
     # the BIC the Takeda must beat (the bilinear's), and the chi-square it must come within
     log_neff = float(np.log(tf.n_eff))
     p_bil = int(np.sum(np.where(fit.yielded, 5, 2)))
     p_tak = N_PARAMS["takeda"] * n
     bic_b = chi2_b + p_bil * log_neff
-    order = refined + [first + int(k) for k in np.argsort(costs[first:])[REFINED_STARTS:]]
+    order = refined + ranked[REFINED_STARTS:]
     sol = None
     for num, k in enumerate(order):
         if num >= len(refined):
