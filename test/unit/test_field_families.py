@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from pier_monitor.bench import _field_window
-from pier_monitor.core.identify.field_families import damped_takeda
+from pier_monitor.core.identify.field_families import (
+    FIELD_TAKEDA_DF_RESOLUTION, FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS, damped_takeda)
 from pier_monitor.core.identify.methods import identify
 from pier_monitor.core.model.springs import TakedaParameters, takeda_moment
 from pier_monitor.core.synthetic.field import field_case_recording
@@ -69,14 +70,17 @@ def test_a_takeda_choice_shows_its_own_posterior_interval():
     assert result.intervals == "90 % interval over 8 draws of the modified-Takeda fit's posterior"
     assert uncertainty_table(result).startswith("uncertainty over 8 members")
     assert result.p_overall_state is not None
+    # the family's own error against the pier, which no draw sees: every level measured
+    assert result.family["df_resolution"] == FIELD_TAKEDA_DF_RESOLUTION == 0.20
     for s, y, df in zip(result.sections, truth.yielded, truth.ductility_factor):
         u = s.uncertainty
         assert u is not None and u.members == 8
         if y:
             assert u.p_yielded == 1.0
             # the interval holds what the section shows (draw 0 is the fit itself, its DF
-            # resolution the floor) and the truth
-            assert u.ductility_factor.lo <= s.ductility_factor <= u.ductility_factor.hi
+            # resolution the floor: at least ±20 % of it) and the truth
+            assert u.ductility_factor.lo <= 0.8 * s.ductility_factor + 1e-12
+            assert u.ductility_factor.hi >= 1.2 * s.ductility_factor - 1e-12
             assert u.ductility_factor.lo <= df <= u.ductility_factor.hi
             assert u.k1.lo <= s.k_small_after <= u.k1.hi
         else:
@@ -132,6 +136,9 @@ def test_field_route_chooses_takeda_on_a_three_level_rc_window():
     assert truth.yielded[0] and truth.ductility_factor[0] > 3.0
     assert base.ductility_factor == pytest.approx(truth.ductility_factor[0], rel=0.30)
     assert family["yielded"][0] and base.state == "damaged"
+    # a wider DF resolution than with an accelerometer at every level: unmeasured levels
+    assert family["df_resolution"] == FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS == 0.25
+    assert base.uncertainty.ductility_factor.lo <= 0.75 * base.ductility_factor + 1e-12
     for s, y in zip(run.result.sections, truth.yielded):
         if not y:
             assert s.ductility_factor <= 1.0 and s.state != "damaged"

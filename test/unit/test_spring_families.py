@@ -12,7 +12,8 @@ from pier_monitor.core.identify.equation_error import (
     fit_equation_error,
     inertia_moments,
 )
-from pier_monitor.core.identify.families import (fit_families, moment_noise_variance,
+from pier_monitor.core.identify.families import (TAKEDA_DF_RESOLUTION, fit_families,
+                                                 moment_noise_variance,
                                                  takeda_draws, takeda_yielded)
 from pier_monitor.core.identify.uncertainty import summarize_members
 from pier_monitor.core.model.ground_motion import synthetic_near_fault
@@ -363,6 +364,8 @@ def test_a_takeda_event_carries_the_intervals_of_its_own_posterior():
     truth = syn.truth.runs[0].rc
     result = identify(window, IdentifySettings(seed=0)).result
     assert result.family["family"] == "takeda"
+    # the equation-error fit's resolution of a Takeda DF (the field reconstruction has its own)
+    assert result.family["df_resolution"] == TAKEDA_DF_RESOLUTION == 0.045
     assert result.intervals == ("90 % interval over 200 draws of the modified-Takeda fit's "
                                 "posterior")
     assert result.p_overall_state is not None and result.p_overall_state[2] > 0.9

@@ -306,6 +306,12 @@ class FamilyChoice:
         The chosen family's own posterior draws where the reconstruction that chose it drew
         them (:func:`~pier_monitor.core.identify.field_families.fit_field_families` with
         ``n_draws``), as :func:`takeda_draws` lays them out; None otherwise.
+    df_resolution : float or None
+        Relative resolution of the DF of a yielded section of a family other than the
+        bilinear, that no draw shows (its family's error against the pier): the DF interval
+        is at least ``DF (1 ± df_resolution)`` wide.  None: :data:`TAKEDA_DF_RESOLUTION`
+        (the equation-error fit's); the field reconstruction gives its own
+        (:data:`~pier_monitor.core.identify.field_families.FIELD_TAKEDA_DF_RESOLUTION`).
     """
 
     family: str
@@ -323,11 +329,18 @@ class FamilyChoice:
     small_amplitude_stiffness: np.ndarray
     stiffness_degradation: np.ndarray = field(repr=False)
     draws: EnsembleDraws | None = field(default=None, repr=False)
+    df_resolution: float | None = None
+
+    @property
+    def takeda_df_resolution(self) -> float:
+        """:attr:`df_resolution`, or :data:`TAKEDA_DF_RESOLUTION` where it is None."""
+        return TAKEDA_DF_RESOLUTION if self.df_resolution is None else self.df_resolution
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary (per-family parameters and scores per section)."""
         out: dict[str, Any] = {"family": self.family, "reason": self.reason,
-                               "bic_total": dict(self.bic_total)}
+                               "bic_total": dict(self.bic_total),
+                               "df_resolution": self.takeda_df_resolution}
         for name in ("peak_rotation", "idealised_yield_rotation", "ductility_factor", "k1",
                      "initial_stiffness", "secant_yield_stiffness", "secant_peak_stiffness",
                      "small_amplitude_stiffness", "stiffness_degradation"):

@@ -43,7 +43,7 @@ from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, Identific
                                                overall_state, with_family, with_identifiability)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
-from pier_monitor.core.identify.families import (TAKEDA_DF_RESOLUTION, FamilyChoice,
+from pier_monitor.core.identify.families import (FamilyChoice,
                                                  fit_families, moment_noise_variance,
                                                  takeda_draws)
 from pier_monitor.core.identify.field import FieldFit, FieldSettings, fit_field
@@ -828,7 +828,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     uncertainty = p_overall = None
     if draws is not None:
         uncertainty, p_overall = _summarize_draws(
-            draws, TAKEDA_DF_RESOLUTION if rc_family else DF_RESOLUTION)
+            draws, out.family.takeda_df_resolution if rc_family else DF_RESOLUTION)
     base_k1 = window.design.k1 if baseline_k1 is None else baseline_k1
     sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
                               baseline_k1=None if rc_family else base_k1,
