@@ -106,6 +106,13 @@ TUNING = {
                             "the chi-square limit: heldout_case draws, tuning seeds 620-645 "
                             "(both piers, sparse, Takeda and bilinear springs); the RC seeds "
                             "610-618 never looked at with it"),
+    "field_takeda_df_resolution": ("field_families.FIELD_TAKEDA_DF_RESOLUTION 0.20 "
+                                   "(accelerometers at every level) and _FEW_LEVELS 0.25 "
+                                   "(three levels): the 90 % quantile of |DF_true/DF - 1| "
+                                   "over the sections the field Takeda reported yielded on "
+                                   "heldout_case draws, tuning seeds 620-656 (accel) and "
+                                   "620-638 (sparse), both piers; the RC seeds 610-618 never "
+                                   "looked at with it"),
 }
 #: Log-normal spread (σ of the natural log) of the design values around the truth.
 DESIGN_LOG_SD = 0.25
