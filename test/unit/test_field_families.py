@@ -8,7 +8,7 @@ import pytest
 
 from pier_monitor.bench import _field_window
 from pier_monitor.core.identify.field_families import (
-    FIELD_TAKEDA_DF_RESOLUTION, FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS, damped_takeda)
+    FIELD_TAKEDA_DF_RESOLUTION, FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS, YIELD_SHARE, damped_takeda)
 from pier_monitor.core.identify.methods import identify
 from pier_monitor.core.model.springs import TakedaParameters, takeda_moment
 from pier_monitor.core.synthetic.field import field_case_recording
@@ -51,6 +51,19 @@ def test_field_route_chooses_takeda_on_an_accelerometer_only_rc_window():
     for s, y in zip(run.result.sections, truth.yielded):
         if not y:
             assert s.ductility_factor <= 1.0
+    # the yield test, in the result: holding the base below yield adds far more than
+    # YIELD_SHARE of the chi-square the fit leaves; a section counts as yielded only past it
+    shares = [sec["yield_gain_share"] for sec in family["sections"]]
+    assert shares[0] is not None and shares[0] > 10 * YIELD_SHARE
+    for share, yielded in zip(shares, family["yielded"]):
+        if yielded:
+            assert share is not None and share > YIELD_SHARE
+    # the light top section (true DF 0.55) passes its fitted yield point, but holding it
+    # below yield adds about 5 % of what the fit leaves, under YIELD_SHARE: not yielded;
+    # sections 2-3 never pass theirs (not tested)
+    assert shares[1] is None and shares[2] is None
+    assert shares[3] is not None and 0.0 < shares[3] < YIELD_SHARE
+    assert not family["yielded"][3] and truth.ductility_factor[3] < 1.0
 
 
 def test_a_takeda_choice_shows_its_own_posterior_interval():

@@ -248,6 +248,13 @@ class SectionFamilies:
         The Takeda fit passed the yield test, but its yield rotation is below
         :data:`MIN_YIELD_ROTATION_SHARE` of the design's (:func:`fit_families`): not yielded,
         in the fit and in every draw of its posterior.
+    yield_gain_share : float or None
+        Field reconstruction only: the chi-square that holding the Takeda spring below yield
+        adds, over the chi-square the fit leaves (:func:`~pier_monitor.core.identify.
+        field_families.fit_field_families`' yield test, which asks more than
+        :data:`~pier_monitor.core.identify.field_families.YIELD_SHARE`); None where the
+        test did not run (the reconstruction does not pass the spring's yield point) and on
+        the equation-error route.
     """
 
     fits: dict[str, FamilyFit]
@@ -258,6 +265,7 @@ class SectionFamilies:
     yielded: dict[str, bool]
     bic_unyielded: dict[str, float]
     yield_refused: bool = False
+    yield_gain_share: float | None = None
 
     @property
     def best(self) -> str:
@@ -349,6 +357,7 @@ class FamilyChoice:
         out["sections"] = [
             {"n_eff": s.n_eff, "yielded": dict(s.yielded), "noise_var": s.noise_var,
              "best": s.best, "bic_unyielded": dict(s.bic_unyielded),
+             "yield_gain_share": s.yield_gain_share,
              "fits": {k: {"params": f.params, "c": f.c, "rss": f.rss, "bic": f.bic,
                           "n_params": f.n_params} for k, f in s.fits.items()}}
             for s in self.sections]

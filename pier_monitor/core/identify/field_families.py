@@ -538,6 +538,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     # yield test: hold one spring below yield (θy at 1.05 θp) and refit it with its
     # neighbours (a yielding spring can stand in for a stiffer or softer neighbour)
     yielded = np.zeros(n, dtype=bool)
+    gain_share: list[float | None] = [None] * n
     theta_y_design = design.yield_angles
     for i in range(n):
         if peak[i] <= tf.params(q, i).theta_y:
@@ -551,6 +552,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                                       x_scale=scales[cols], max_nfev=100, tr_solver="lsmr",
                                       workers=res_held.map)
         gain = float(np.sum(held.fun[:tf.n_data] ** 2)) - chi2_t
+        gain_share[i] = gain / chi2_t if chi2_t > 0.0 else float("inf")
         # ... and by more than YIELD_SHARE of what the fit leaves; a yield rotation far below
         # the design's (fy/k1) is a crack the fit took for a yield point
         yielded[i] = bool(gain > max(settings.yield_chi2, 2.0 * log_neff)
@@ -595,7 +597,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
             peak_rotation=float(peak[i] if family == "takeda"
                                 else np.abs(fit.theta[:, i]).max()),
             yielded={"takeda": bool(yielded[i]), "bilinear": bool(fit.yielded[i])},
-            bic_unyielded={}))
+            bic_unyielded={}, yield_gain_share=gain_share[i]))
     th_out, mo_out = (theta, moment) if family == "takeda" else (fit.theta, fit.moment)
     pk = np.array([s.peak_rotation for s in sections])
     fam_yielded = np.array([s.yielded[family] for s in sections])
