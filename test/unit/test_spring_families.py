@@ -365,7 +365,7 @@ def test_a_takeda_event_carries_the_intervals_of_its_own_posterior():
     result = identify(window, IdentifySettings(seed=0)).result
     assert result.family["family"] == "takeda"
     # the equation-error fit's resolution of a Takeda DF (the field reconstruction has its own)
-    assert result.family["df_resolution"] == TAKEDA_DF_RESOLUTION == 0.045
+    assert result.family["df_resolution"] == TAKEDA_DF_RESOLUTION == 0.12
     assert result.intervals == ("90 % interval over 200 draws of the modified-Takeda fit's "
                                 "posterior")
     assert result.p_overall_state is not None and result.p_overall_state[2] > 0.9

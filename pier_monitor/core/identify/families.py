@@ -727,13 +727,17 @@ TAKEDA_DRAWS = 200
 #: section is at least ``DF (1 ± TAKEDA_DF_RESOLUTION)`` wide (as
 #: :data:`~pier_monitor.core.identify.uncertainty.DF_RESOLUTION` for the bilinear).  The
 #: family is not the test-bed's spring (strength loss, its own unloading and pinching
-#: rules): the yielded sections' DF was off by +0.4 to +4.3 % on the RC tuning cases
-#: (seeds 300-301, both piers, both shakings, full layout: 10 yielded sections in 8
-#: events), most at the second section of Table 1 under the strong shaking (+3.2, +4.3 %),
-#: where the draws' intervals end 2.6 and 3.0 % below the fit's DF.  With the bilinear's
-#: 1.5 % the intervals held 6 of the 10 true DFs (the four of Table 1's strong shaking
-#: missed), with 4.5 % all 10.
-TAKEDA_DF_RESOLUTION = 0.045
+#: rules), and the draws see the fit's residual, not that error.  Chosen as the 90 %
+#: quantile of ``|DF_true / DF − 1|`` over the sections whose reinforcement yielded and that
+#: the equation-error Takeda reported yielded, on the held-out suite's tuning draws
+#: (:func:`~pier_monitor.bench_heldout.heldout_case`, Takeda springs, full layout, both
+#: piers, seeds 620-656: 78 sections, 0.122 — E-Defense 0.081, Table 1 0.123); the draws
+#: with the earlier 4.5 % held 72 % of them, with 12 % about 90 %.  The 4.5 % had been
+#: chosen on the RC tuning cases (seeds 300-301, full layout, 10 yielded sections, all held
+#: with it); the held-out suite's Table 1 RC row held 5 of 9 with it.  The field
+#: reconstruction's Takeda has a resolution of its own
+#: (:data:`~pier_monitor.core.identify.field_families.FIELD_TAKEDA_DF_RESOLUTION`).
+TAKEDA_DF_RESOLUTION = 0.12
 #: Central-difference step of the Takeda Jacobian in the fit's own coordinates (logs of the
 #: stiffnesses and moment, ratios in 0-1): small against the posterior's width, large against
 #: the kinks of the piecewise-linear spring over a window of thousands of samples.

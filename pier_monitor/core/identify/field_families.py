@@ -104,9 +104,9 @@ YIELD_SHARE = 0.2
 #: own), which no draw of the reconstruction's Laplace posterior sees.  Its DF interval is
 #: at least ``DF (1 ± FIELD_TAKEDA_DF_RESOLUTION)`` wide with an accelerometer at every
 #: level, ``DF (1 ± FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS)`` with unmeasured levels (the
-#: ``sparse`` layout).  The equation-error fit's 4.5 %
+#: ``sparse`` layout).  The equation-error fit's resolution, then 4.5 %
 #: (:data:`~pier_monitor.core.identify.families.TAKEDA_DF_RESOLUTION`, chosen on fully
-#: measured windows) had been used here too: the held-out suite's RC rows held the
+#: measured windows), had been used here too: the held-out suite's RC rows held the
 #: idealised truth in 7 of 9 (E-Defense) and 2 of 9 (Table 1) yielded sections on
 #: accelerometers, 3 and 0 of 9 on three levels.  Chosen as the 90 % quantile of
 #: ``|DF_true / DF − 1|`` over the sections the reconstruction reported yielded on the
