@@ -732,7 +732,7 @@ TAKEDA_DRAWS = 200
 #: the equation-error Takeda reported yielded, on the held-out suite's tuning draws
 #: (:func:`~pier_monitor.bench_heldout.heldout_case`, Takeda springs, full layout, both
 #: piers, seeds 620-656: 78 sections, 0.122 — E-Defense 0.081, Table 1 0.123); the draws
-#: with the earlier 4.5 % held 72 % of them, with 12 % about 90 %.  The 4.5 % had been
+#: with the earlier 4.5 % held 72 % of them, with 12 % 88 %.  The 4.5 % had been
 #: chosen on the RC tuning cases (seeds 300-301, full layout, 10 yielded sections, all held
 #: with it); the held-out suite's Table 1 RC row held 5 of 9 with it.  The field
 #: reconstruction's Takeda has a resolution of its own
