@@ -828,7 +828,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     uncertainty = p_overall = None
     if draws is not None:
         uncertainty, p_overall = _summarize_draws(
-            draws, out.family.takeda_df_resolution if rc_family else DF_RESOLUTION)
+            draws, out.family.df_resolution if rc_family else DF_RESOLUTION)
     base_k1 = window.design.k1 if baseline_k1 is None else baseline_k1
     sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
                               baseline_k1=None if rc_family else base_k1,
