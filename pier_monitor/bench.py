@@ -26,7 +26,8 @@ from pier_monitor.bench_fiber import bench_fiber
 from pier_monitor.store import ResultsStore
 from pier_monitor.bags.synthetic_bag import write_synthetic_edefense_bag
 from pier_monitor.bags.synthetic_fleet import write_synthetic_fleet
-from pier_monitor.core.identify.damage import ductility_factors, split_unmeasured_evidence
+from pier_monitor.core.identify.damage import (ductility_factors, split_unmeasured_evidence,
+                                               yield_out_of_reach_evidence)
 from pier_monitor.core.ingest import StreamIngest, ingest_recording
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.selfcheck import (ENERGY_INDEX_LARGE, ENERGY_INDEX_MISFIT,
@@ -461,6 +462,7 @@ def _selfcheck_entry(run: IdentificationRun, window: MeasuredWindow, theta_true:
            "family": (run.result.family or {}).get("family"),
            "yielded": [bool(s.yielded) for s in run.result.sections],
            "measured_levels": [bool(v) for v in window.coverage.motion],
+           "yield_rotation_vs_design": (run.result.family or {}).get("yield_rotation_vs_design"),
            # the lower end of each section's 90 % DF interval (None: no interval), which
            # rule 9 reads under a model misfit
            "df_lo": [None if s.uncertainty is None or s.uncertainty.members < 2
@@ -566,7 +568,9 @@ def _checked_states(run: dict[str, Any], limits: MisfitLimits) -> list[str]:
     :mod:`~pier_monitor.core.identify.damage`), and the sections of a span no sensor splits
     neither intact where one yielded nor damaged under a model misfit or a
     reinforced-concrete family (rule 11, :func:`~pier_monitor.core.identify.damage.
-    split_unmeasured_evidence`); rule 10 is not modelled."""
+    split_unmeasured_evidence`), and a section whose RC spring's yield is out of reach and its
+    neighbours where one yielded neither intact nor damaged (rule 12, :func:`~pier_monitor.
+    core.identify.damage.yield_out_of_reach_evidence`); rule 10 is not modelled."""
     kind = _judged(run, limits)
     if kind == "sensor":
         return ["unreliable"] * len(run["states"])
@@ -589,6 +593,10 @@ def _checked_states(run: dict[str, Any], limits: MisfitLimits) -> list[str]:
             and run.get("measured_levels") is not None:
         split = split_unmeasured_evidence(run["df"], run["yielded"], run["measured_levels"])
         states = ["suspicious" if sp and st in order else st for st, sp in zip(states, split)]
+    if run.get("family") not in (None, "bilinear"):  # rule 12
+        reach = yield_out_of_reach_evidence(run["df"], run["yielded"],
+                                            run.get("yield_rotation_vs_design"))
+        states = ["suspicious" if far and st in order else st for st, far in zip(states, reach)]
     return states
 
 

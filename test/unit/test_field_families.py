@@ -9,6 +9,7 @@ import pytest
 from pier_monitor.bench import _field_window
 from pier_monitor.core.identify.field_families import (
     FIELD_TAKEDA_DF_RESOLUTION, FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS, YIELD_SHARE, damped_takeda)
+from pier_monitor.core.identify.damage import MAX_YIELD_ROTATION_RATIO
 from pier_monitor.core.identify.methods import identify
 from pier_monitor.core.model.springs import TakedaParameters, takeda_moment
 from pier_monitor.core.synthetic.field import field_case_recording
@@ -64,6 +65,10 @@ def test_field_route_chooses_takeda_on_an_accelerometer_only_rc_window():
     assert shares[1] is None and shares[2] is None
     assert shares[3] is not None and 0.0 < shares[3] < YIELD_SHARE
     assert not family["yielded"][3] and truth.ductility_factor[3] < 1.0
+    # every Takeda section's yield rotation is an RC section's, near the design's: rule 12
+    # (the yield out of reach) does not apply
+    ratios = np.array(family["yield_rotation_vs_design"])
+    assert ratios.shape == (4,) and np.all((ratios > 0.3) & (ratios < MAX_YIELD_ROTATION_RATIO))
 
 
 def test_a_takeda_choice_shows_its_own_posterior_interval():

@@ -12,6 +12,7 @@ from pier_monitor.core.errors import InputDataError
 
 from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DAMAGED,
                                                SPLIT_UNMEASURED, split_unmeasured_evidence,
+                                               YIELD_OUT_OF_REACH, yield_out_of_reach_evidence,
                                                IdentificationResult, build_sections,
                                                overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
@@ -390,6 +391,64 @@ def test_the_spans_no_sensor_splits_are_those_between_measured_levels():
     assert split_unmeasured_evidence([3.0, 2.0], [True, True], [True, True]) == [(), ()]
     with pytest.raises(InputDataError, match="yielded: expected 2 entries"):
         split_unmeasured_evidence([3.0, 2.0], [True], [True, True])
+
+
+def test_a_spring_whose_yield_is_out_of_reach_leaves_its_and_its_neighbours_df_unidentified(
+        cases):
+    """Rule 12, as on the RC test-bed's tuning seed 300 (Table 1, accelerometers): a Takeda
+    section 2 whose yield rotation is 100 times the design's reads DF 0.02 beside a section 3
+    damaged at DF 2.55 (true 0.74) on a clear interval.  Section 2 is not intact, section 3
+    and the base are not damaged, every one of the three has its DF flagged, and section 4
+    keeps its state; with ratios within MAX_YIELD_ROTATION_RATIO, or bilinear springs, the
+    states stand."""
+    window, truth, _ = cases[1]
+    p = (0.0, 0.0, 1.0)
+    own = _result(window, truth, (3.0, 0.02, 2.55, 0.5), p_overall_state=p,
+                  family={"family": "takeda",
+                          "yield_rotation_vs_design": [1.1, 100.0, 0.9, 1.0]})
+    sec = list(own.sections)
+    for i, df in ((0, Spread(3.0, 0.1, 2.7, 3.3)), (2, Spread(2.55, 0.1, 1.79, 3.19))):
+        sec[i] = dataclasses.replace(sec[i], uncertainty=_base_uncertainty(df, p))
+    own = dataclasses.replace(own, sections=tuple(sec))
+    assert [s.state for s in own.sections] == ["damaged", "intact", "damaged", "intact"]
+    clean = model_misfit(window, truth).as_dict()
+    result = own.with_evidence(np.zeros(4), [()] * 4, clean)
+    assert [s.state for s in result.sections] == ["suspicious"] * 3 + ["intact"]
+    assert [("DF" in s.poorly_identified) for s in result.sections] == [True] * 3 + [False]
+    second, third = result.sections[1], result.sections[2]
+    assert second.evidence[0] == (
+        f"{YIELD_OUT_OF_REACH}: section 2's spring puts its yield rotation at 100 times the "
+        "design's, where no RC section yields: whether it yielded is not identified, its DF "
+        "not identified")
+    assert third.evidence[0].startswith(f"{YIELD_OUT_OF_REACH}: section 2 beside it does not "
+                                        "yield (100 times the design's yield rotation)")
+    assert "section 1 DF 3.00, section 3 DF 2.55" in third.evidence[0]
+    assert third.reasons[-2] == ("DF not identified (a neighbour's spring does not yield, its "
+                                 "rotation may be this one's): not called damaged on it")
+    assert result.overall_state == "suspicious"
+    # read back and decided again: the evidence stays
+    again = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
+        truth.k1, "design values")
+    assert [s.state for s in again.sections] == ["suspicious"] * 3 + ["intact"]
+    # ratios an RC section has, or the bilinear chosen: the states stand
+    for family in ({"family": "takeda", "yield_rotation_vs_design": [1.1, 9.0, 0.9, 1.0]},
+                   {"family": "bilinear", "yield_rotation_vs_design": [1.1, 100.0, 0.9, 1.0]}):
+        kept = dataclasses.replace(own, family=family).with_evidence(np.zeros(4), [()] * 4,
+                                                                     clean)
+        assert [s.state for s in kept.sections] == [s.state for s in own.sections]
+
+
+def test_a_yield_out_of_reach_flags_its_neighbours_only_where_one_of_them_yielded():
+    """Nothing beside it yielded: only the section itself gets the line; a ratio of None (no
+    design, the bilinear) gives none; shapes are checked."""
+    lines = yield_out_of_reach_evidence([0.3, 0.5, 0.2], [False] * 3, [1.0, 1.0, 12.0])
+    assert lines[:2] == [(), ()] and lines[2][0].startswith(
+        f"{YIELD_OUT_OF_REACH}: section 3's spring puts its yield rotation at 12 times")
+    lines = yield_out_of_reach_evidence([1.3, 0.5, 0.2], [True, False, False], [1.0, 11.0, 1.0])
+    assert all(len(x) == 1 for x in lines)
+    assert yield_out_of_reach_evidence([3.0, 0.1], [True, False], None) == [(), ()]
+    with pytest.raises(InputDataError, match="expected 2 entries"):
+        yield_out_of_reach_evidence([3.0, 0.1], [True, False], [1.0])
 
 
 def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(

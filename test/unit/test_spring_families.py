@@ -366,6 +366,9 @@ def test_a_takeda_event_carries_the_intervals_of_its_own_posterior():
     assert result.family["family"] == "takeda"
     # the equation-error fit's resolution of a Takeda DF (the field reconstruction has its own)
     assert result.family["df_resolution"] == TAKEDA_DF_RESOLUTION == 0.12
+    # the Takeda's yield rotations against the design's (rule 12 of the damage module)
+    ratios = np.array(result.family["yield_rotation_vs_design"])
+    assert ratios.shape == (4,) and np.all((ratios > 0.3) & (ratios < 10.0))
     assert result.intervals == ("90 % interval over 200 draws of the modified-Takeda fit's "
                                 "posterior")
     assert result.p_overall_state is not None and result.p_overall_state[2] > 0.9

@@ -81,6 +81,20 @@ applies with or without an ensemble, and only raises a state
     the Takeda chosen and no model misfit), so that suite's three-level rows are no longer
     held out for it either.  Bilinear springs that reproduce the data resolve the split by
     their yield moments, and keep their states.
+12. where a reinforced-concrete family was chosen, a section whose spring puts its yield
+    rotation beyond :data:`MAX_YIELD_ROTATION_RATIO` times the design's ``fy/k1``
+    (:func:`yield_out_of_reach_evidence`) is no RC section: the fit traded its yielding for
+    a soft spring that never yields, and its neighbours may carry the plastic rotation that
+    is its.  It gets the evidence :data:`YIELD_OUT_OF_REACH` (never intact, its DF not
+    identified), and so does each neighbour where one of the three is reported yielded
+    (never damaged on its own DF).  Found on the RC test-bed's tuning seeds (``rc_tuning``,
+    Table 1, accelerometers, strong shaking, seed 300): section 2 (true DF 2.42) fitted a
+    yield rotation about 100 times the design's and read DF 0.02, and section 3 was damaged
+    at DF 2.55 against a true 0.74.  On the held-out suite's tuning draws (accelerometers,
+    seeds 620-656, both piers, 194 Takeda sections) the ratio reached 8.9 at most; the
+    same failure on its RC seeds 616 and 618 (Table 1, accelerometers: ratios 94 and 20 at
+    the base, read DF 0.04 and 0.13 against 4.14 and 2.72) had been seen before the rule
+    was made, so those draws are no longer held out for it.
 
 A section's state probabilities (``uncertainty.p_state``, the members' shares) follow the
 self-check's evidence as its state does (:func:`_p_state_with_evidence`): the members never
@@ -123,6 +137,9 @@ __all__ = [
     "k1_loss_reason",
     "overall_state",
     "split_unmeasured_evidence",
+    "yield_out_of_reach_evidence",
+    "YIELD_OUT_OF_REACH",
+    "MAX_YIELD_ROTATION_RATIO",
     "ductility_factors",
     "SectionResult",
     "IdentificationResult",
@@ -190,6 +207,19 @@ FIT_AT_LIMIT = "fit at a limit"
 #: neighbour's, under a model misfit, in a span where one of them yielded; its DF is not
 #: identified.
 SPLIT_UNMEASURED = "split not measured"
+
+#: The start of rule 12's evidence: a section whose spring puts its yield rotation out of
+#: reach (beyond :data:`MAX_YIELD_ROTATION_RATIO` times the design's), or its neighbour where
+#: one of them yielded; its DF is not identified.
+YIELD_OUT_OF_REACH = "yield out of reach"
+
+#: Largest ratio of an RC family's yield rotation to the design's ``fy/k1`` that is still an
+#: RC section's (rule 12).  Design values are known to tens of per cent; on the held-out
+#: suite's tuning draws (:func:`~pier_monitor.bench_heldout.heldout_case`, Takeda springs,
+#: accelerometers, seeds 620-656, both piers) the field reconstruction's Takeda sections
+#: reached 8.9 at most (Table 1, seed 641, section 3, true DF 0.83); the degenerate spring of
+#: the RC test-bed's tuning seed 300 (rc_tuning, Table 1, accelerometers, strong) about 100.
+MAX_YIELD_ROTATION_RATIO = 10.0
 
 #: A section is reported "not yielded" only while the probability that its spring yielded
 #: (the share of the ensemble's members) is below this.
@@ -281,9 +311,11 @@ def _is_model_misfit(model_misfit: dict[str, Any] | None) -> bool:
 
 def _evidence_says_unidentified(evidence: Sequence[str]) -> bool:
     """Whether ``evidence`` holds rule 8's line (:data:`BILINEAR_MISFIT`: the section's
-    ``k1`` and DF are not identified), rule 10's (:data:`FIT_AT_LIMIT`: its DF is not) or
-    rule 11's (:data:`SPLIT_UNMEASURED`: its DF is not)."""
-    return any(e.startswith((BILINEAR_MISFIT, FIT_AT_LIMIT, SPLIT_UNMEASURED))
+    ``k1`` and DF are not identified), rule 10's (:data:`FIT_AT_LIMIT`: its DF is not),
+    rule 11's (:data:`SPLIT_UNMEASURED`: its DF is not) or rule 12's
+    (:data:`YIELD_OUT_OF_REACH`: its DF is not)."""
+    return any(e.startswith((BILINEAR_MISFIT, FIT_AT_LIMIT, SPLIT_UNMEASURED,
+                             YIELD_OUT_OF_REACH))
                for e in evidence)
 
 
@@ -339,6 +371,58 @@ def split_unmeasured_evidence(ductility: Sequence[float] | np.ndarray,
                 "not identified")
         for j in span:
             out[j] = (line,)
+    return out
+
+
+def yield_out_of_reach_evidence(ductility: Sequence[float] | np.ndarray,
+                                yielded: Sequence[bool] | np.ndarray,
+                                yield_rotation_vs_design: Sequence[float] | np.ndarray | None
+                                ) -> list[tuple[str, ...]]:
+    """Rule 12's evidence per section: a line for each section whose yield rotation is
+    beyond :data:`MAX_YIELD_ROTATION_RATIO` times the design's, and for its neighbours where
+    one of the three is reported yielded (DF above 1); none otherwise.
+
+    Parameters
+    ----------
+    ductility : sequence of float, shape (N,)
+        The DF each section shows, from the base up.
+    yielded : sequence of bool, shape (N,)
+        Whether each section is reported yielded.
+    yield_rotation_vs_design : sequence of float, shape (N,), or None
+        The chosen RC family's yield rotation over the design's ``fy/k1``
+        (:class:`~pier_monitor.core.identify.families.FamilyChoice`); None (the bilinear
+        chosen, or no design): no evidence.
+
+    Raises
+    ------
+    InputDataError
+        If ``yielded`` or ``yield_rotation_vs_design`` does not have one entry per DF.
+    """
+    df = np.asarray(ductility, dtype=float)
+    n = df.size
+    if yield_rotation_vs_design is None:
+        return [()] * n
+    ratio = np.asarray(yield_rotation_vs_design, dtype=float)
+    if np.shape(yielded) != (n,) or ratio.shape != (n,):
+        raise InputDataError(f"yielded and yield rotations against the design: expected {n} "
+                             f"entries, got shapes {np.shape(yielded)} and {ratio.shape}")
+    shown = np.asarray(yielded, dtype=bool) | (df > 1.0)
+    out: list[tuple[str, ...]] = [()] * n
+    for i in np.flatnonzero(ratio > MAX_YIELD_ROTATION_RATIO):
+        near = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
+        own = (f"{YIELD_OUT_OF_REACH}: section {i + 1}'s spring puts its yield rotation at "
+               f"{ratio[i]:.0f} times the design's, where no RC section yields: whether it "
+               "yielded is not identified, its DF not identified")
+        out[i] = (*out[i], own)
+        if not shown[near].any():
+            continue
+        dfs = ", ".join(f"section {j + 1} DF {df[j]:.2f}" for j in near if shown[j])
+        for j in near:
+            if j != i:
+                out[j] = (*out[j], (
+                    f"{YIELD_OUT_OF_REACH}: section {i + 1} beside it does not yield ({ratio[i]:.0f} "
+                    f"times the design's yield rotation), so the rotation it shows may be its "
+                    f"neighbour's ({dfs}): its DF not identified"))
     return out
 
 
@@ -554,8 +638,9 @@ def _decide(ductility_factor: float, yielded: bool, uncertainty: SectionUncertai
 def _with_evidence(state: DamageState, reasons: tuple[str, ...], evidence: Sequence[str]
                    ) -> tuple[DamageState, tuple[str, ...]]:
     """At least suspicious, with the evidence's reasons, when there is any evidence; not
-    damaged on a DF that rule 8's or rule 10's evidence (:data:`BILINEAR_MISFIT`,
-    :data:`FIT_AT_LIMIT`) says is not identified."""
+    damaged on a DF that the evidence of rules 8, 10, 11 or 12 (:data:`BILINEAR_MISFIT`,
+    :data:`FIT_AT_LIMIT`, :data:`SPLIT_UNMEASURED`, :data:`YIELD_OUT_OF_REACH`) says is not
+    identified."""
     evidence = tuple(str(e) for e in evidence)
     if not evidence:
         return state, reasons
@@ -565,6 +650,8 @@ def _with_evidence(state: DamageState, reasons: tuple[str, ...], evidence: Seque
                                                     for e in evidence)
                else "the section's fit ended at a limit" if any(e.startswith(FIT_AT_LIMIT)
                                                                for e in evidence)
+               else "a neighbour's spring does not yield, its rotation may be this one's"
+               if not any(e.startswith(SPLIT_UNMEASURED) for e in evidence)
                else "its rotation is not told apart from its neighbours'")
         reasons = (*reasons, f"DF not identified ({why}): not called damaged on it")
     return max(state, DamageState.SUSPICIOUS), reasons + evidence
@@ -1014,7 +1101,10 @@ class IdentificationResult:
         quantity at its limit (``c`` or ``k2``) and ``DF`` in its ``poorly_identified``.  Under
         a model misfit or with a reinforced-concrete family, with ``measured_levels``, the
         sections of a span whose inner levels no sensor measures get rule 11's line (:func:`split_unmeasured_evidence`) where one of
-        them yielded, and ``DF`` in their ``poorly_identified``.
+        them yielded, and ``DF`` in their ``poorly_identified``.  Where a reinforced-concrete
+        family was chosen, a section whose yield rotation is out of reach, and its
+        neighbours where one of them yielded, get rule 12's line
+        (:func:`yield_out_of_reach_evidence`) and ``DF`` in their ``poorly_identified``.
 
         Parameters
         ----------
@@ -1051,11 +1141,17 @@ class IdentificationResult:
                  else split_unmeasured_evidence(
                      [x.ductility_factor for x in self.sections],
                      [x.yielded for x in self.sections], measured_levels))
+        reach = yield_out_of_reach_evidence(
+            [x.ductility_factor for x in self.sections], [x.yielded for x in self.sections],
+            (self.family or {}).get("yield_rotation_vs_design") if rc_family else None)
         sections = []
-        for s, e, ev, lim, sp in zip(self.sections, energy, evidence, limits, split):
+        for s, e, ev, lim, sp, far in zip(self.sections, energy, evidence, limits, split, reach):
             ev = tuple(str(r) for r in ev)
             if sp and is_diagnosis(s.damage_state):  # rule 11
                 ev = (*ev, *sp)
+                s = replace(s, poorly_identified=_flagged(s.poorly_identified, "DF"))
+            if far and is_diagnosis(s.damage_state):  # rule 12
+                ev = (*ev, *far)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "DF"))
             if bilinear_misfit and is_diagnosis(s.damage_state):  # rule 8
                 ev = (*ev, bilinear_misfit)

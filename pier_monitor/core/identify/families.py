@@ -338,6 +338,12 @@ class FamilyChoice:
         :data:`TAKEDA_DF_RESOLUTION`; the field reconstruction gives its own
         (:data:`~pier_monitor.core.identify.field_families.FIELD_TAKEDA_DF_RESOLUTION`).
         Not used (and ``null`` in :meth:`as_dict`) where the bilinear is chosen.
+    yield_rotation_vs_design : ndarray or None
+        Per section, the chosen family's yield rotation (the Takeda's ``theta_y``) over the
+        design's ``fy/k1``, dimensionless (N,); None where the bilinear is chosen or the
+        design is not known.  A ratio beyond
+        :data:`~pier_monitor.core.identify.damage.MAX_YIELD_ROTATION_RATIO` is a spring whose
+        yield the fit put out of reach (rule 12 of :mod:`~pier_monitor.core.identify.damage`).
     """
 
     family: str
@@ -356,6 +362,7 @@ class FamilyChoice:
     stiffness_degradation: np.ndarray = field(repr=False)
     draws: EnsembleDraws | None = field(default=None, repr=False)
     df_resolution: float = TAKEDA_DF_RESOLUTION
+    yield_rotation_vs_design: np.ndarray | None = field(default=None, repr=False)
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary (per-family parameters and scores per section)."""
@@ -368,6 +375,9 @@ class FamilyChoice:
                      "small_amplitude_stiffness", "stiffness_degradation"):
             out[name] = [float(v) for v in getattr(self, name)]
         out["yielded"] = [bool(v) for v in self.yielded]
+        out["yield_rotation_vs_design"] = (
+            None if self.yield_rotation_vs_design is None or self.family == "bilinear"
+            else [float(v) for v in self.yield_rotation_vs_design])
         out["sections"] = [
             {"n_eff": s.n_eff, "yielded": dict(s.yielded), "noise_var": s.noise_var,
              "best": s.best, "bic_unyielded": dict(s.bic_unyielded),
@@ -729,7 +739,11 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
                         peak_rotation=peak, idealised_yield_rotation=ty_id,
                         ductility_factor=df, yielded=yielded, k1=k1, initial_stiffness=init,
                         secant_yield_stiffness=sec_y, secant_peak_stiffness=sec_p,
-                        small_amplitude_stiffness=small, stiffness_degradation=small / init - 1.0)
+                        small_amplitude_stiffness=small, stiffness_degradation=small / init - 1.0,
+                        yield_rotation_vs_design=(
+                            None if design_yield_rotation is None or family == "bilinear"
+                            else np.array([s.fits["takeda"].params["theta_y"] for s in sections])
+                            / ty_design))
 
 
 # ---------------------------------------------------------------------------------------------

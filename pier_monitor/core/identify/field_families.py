@@ -627,7 +627,11 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                           small_amplitude_stiffness=small, stiffness_degradation=small / init - 1.0,
                           draws=draws,
                           df_resolution=(FIELD_TAKEDA_DF_RESOLUTION if pb.acc.size == n
-                                         else FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS))
+                                         else FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS),
+                          yield_rotation_vs_design=(
+                              None if family == "bilinear"
+                              else np.array([tf.params(q, i).theta_y for i in range(n)])
+                              / theta_y_design))
     return choice, th_out, mo_out
 
 
