@@ -652,9 +652,9 @@ def _with_evidence(state: DamageState, reasons: tuple[str, ...], evidence: Seque
                                                     for e in evidence)
                else "the section's fit ended at a limit" if any(e.startswith(FIT_AT_LIMIT)
                                                                for e in evidence)
-               else "a neighbour's spring does not yield, its rotation may be this one's"
-               if not any(e.startswith(SPLIT_UNMEASURED) for e in evidence)
-               else "its rotation is not told apart from its neighbours'")
+               else "its rotation is not told apart from its neighbours'"
+               if any(e.startswith(SPLIT_UNMEASURED) for e in evidence)
+               else "a neighbour's spring does not yield, its rotation may be this one's")
         reasons = (*reasons, f"DF not identified ({why}): not called damaged on it")
     return max(state, DamageState.SUSPICIOUS), reasons + evidence
 

@@ -546,12 +546,16 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                 sol = trial
         return sol
 
+    theta_y_design = design.yield_angles
+
+    def yield_rotation_vs_design(qq: np.ndarray) -> np.ndarray:
+        return np.array([tf.params(qq, i).theta_y for i in range(n)]) / theta_y_design
+
     sol = refine(hi_f)
     # a spring whose yield the fit put out of reach (rule 12 of the damage module): the starts
     # again with its yield moment bounded, the refit kept where it reproduces the data better
-    q_1 = unpack(sol.x)[0]
-    far = [i for i in range(n) if tf.params(q_1, i).theta_y
-           > MAX_YIELD_ROTATION_RATIO * design.yield_angles[i]]
+    far = np.flatnonzero(yield_rotation_vs_design(unpack(sol.x)[0])
+                         > MAX_YIELD_ROTATION_RATIO).tolist()
     refit = ""
     if far:
         hi_cap = hi_f.copy()
@@ -577,7 +581,6 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     # neighbours (a yielding spring can stand in for a stiffer or softer neighbour)
     yielded = np.zeros(n, dtype=bool)
     gain_share: list[float | None] = [None] * n
-    theta_y_design = design.yield_angles
     for i in range(n):
         if peak[i] <= tf.params(q, i).theta_y:
             continue
@@ -666,10 +669,8 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                           draws=draws,
                           df_resolution=(FIELD_TAKEDA_DF_RESOLUTION if pb.acc.size == n
                                          else FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS),
-                          yield_rotation_vs_design=(
-                              None if family == "bilinear"
-                              else np.array([tf.params(q, i).theta_y for i in range(n)])
-                              / theta_y_design))
+                          yield_rotation_vs_design=(None if family == "bilinear"
+                                                    else yield_rotation_vs_design(q)))
     return choice, th_out, mo_out
 
 
