@@ -1378,9 +1378,9 @@ def poorly_identified(section: SectionResult, ends_measured: bool = True) -> tup
 
     So is its ``c``: its damping trades off against its neighbours' as its stiffness does.
     On the held-out suite's tuning draws (bilinear springs, "sparse" layout, both piers,
-    seeds 620-639) the 90 % ``c`` intervals of such sections that were not flagged held the
-    truth in 24 of 40 (60 %; yielded 20 of 25); every ``c`` that missed outside its interval
-    unflagged was of such a section (16 of 16, off by 8-53 %).
+    seeds 620-631 and the E-Defense pier's 632) the 90 % ``c`` intervals that were not
+    flagged held the truth in 29 of 46 (63 %; of yielded sections 23 of 28); every one that
+    missed was of such a section (17 of 17, off by 7-53 %).
 
     For the same reason the ``DF`` of such a section is poorly identified where it is
     reported yielded or its members give it a probability of yielding of at least
