@@ -139,6 +139,16 @@ TUNING = {
                               "accel (Brier 0.022 -> 0.033 centred, 3 elastic sections at "
                               "P(yield) >= 0.5; raw: 3 yielded sections from P 1 to "
                               "0.03-0.31); the draws keep the fit's test"),
+    "field_fallback_max_misfit": ("methods.FIELD_FALLBACK_MAX_MISFIT 1.2 (auto on a full "
+                                  "window takes the field reconstruction only where its "
+                                  "simulation misfits at most 1.2 times its allowance): "
+                                  "heldout_case draws, tuning seeds 620-656, full, bilinear "
+                                  "(fallbacks at 0.22-1.03), BWBN draws 620-640 and the rc "
+                                  "suite's tuning seeds 300-301 (1.02-2.22)"),
+    "unmeasured_end_c_flag": ("damage.poorly_identified flags c of a section with an "
+                              "unmeasured end: heldout_case draws, tuning seeds 620-631 (and "
+                              "E-Defense 632), sparse, bilinear: unflagged c coverage 29/46, "
+                              "all 17 misses at such sections"),
 }
 #: Log-normal spread (σ of the natural log) of the design values around the truth.
 DESIGN_LOG_SD = 0.25
