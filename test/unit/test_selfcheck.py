@@ -524,17 +524,20 @@ def test_a_misfit_that_follows_another_levels_response_is_the_models_noise_a_sen
 
 def test_reproduced_responses_that_misfit_every_level_with_a_model_misfit_are_the_models(
         tmp_path):
-    """BWBN springs (RC test-bed), Table 1 pier, full layout, just-yield, seed 302: the
-    equation-error springs misfit, the field reconstruction is taken, and its displacements
-    misfit every level; the self-check finds the model misfit.  That is the model's: every
+    """BWBN springs (RC test-bed), Table 1 pier, full layout, just-yield, seed 302, the field
+    reconstruction asked for (``auto`` keeps the equation-error fit here: the
+    reconstruction misfits beyond ``FIELD_FALLBACK_MAX_MISFIT``): its displacements misfit
+    every level, and the self-check finds the model misfit.  That is the model's: every
     section suspicious with k1 and DF flagged (rule 8), the reasons in the misfit summary,
     not an unreliable result."""
     from pier_monitor.bench import _field_window
-    from pier_monitor.bench_heldout import identify_rc_case
+    from pier_monitor.bench_heldout import identify_default, true_ductility
+    from pier_monitor.core.synthetic.field import field_case_recording
 
-    window, true_df, yielded, outcome, _ = identify_rc_case(
-        ResultsStore(tmp_path), _field_window, "rc", "bwbn", "table1", "full", "just_yield",
-        302)
+    syn = field_case_recording("table1", "full", False, "just_yield", 302, hysteresis="bwbn")
+    window, _, _ = _field_window(syn, "table1/full/just_yield/302/bwbn")
+    true_df, yielded = true_ductility(syn.truth.runs[0])
+    outcome, _ = identify_default(window, ResultsStore(tmp_path), 302, method="field")
     result = outcome.result
     assert outcome.status == "identified" and not result.unreliable_reasons
     misfit = result.model_misfit
