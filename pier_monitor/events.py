@@ -140,7 +140,8 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
        reference, its ``k2`` at its cap: :func:`~pier_monitor.core.identify.checks.
        section_fit_limits`) is that section's: it is suspicious, its ``c`` (``k2``) and DF
        not identified, and the other sections keep their states (rule 10 of
-       :mod:`~pier_monitor.core.identify.damage`).
+       :mod:`~pier_monitor.core.identify.damage`).  On the equation-error route, where each
+       section's spring is fitted to its own moment, so is a ``k1`` out of its range.
        The identified model is simulated under the measured foundation motion and compared
        with the measured responses (:func:`~pier_monitor.core.identify.selfcheck.self_check`):
        a misfit at one level that the response does not explain (a sensor's) makes the
@@ -203,9 +204,10 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
                             window_file=window_file, paths=None)
     checked = _checked_params(run.result, window)
     bilinear = (run.result.family or {}).get("family") in (None, "bilinear")  # as rule 8
+    own_fits = list(run.stages) == ["equation_error"]  # every section's fit its own
     reasons = check_identification(
         checked, run.reproduced, window, sections_apart=True, misfits_apart=True,
-        ductility=None if bilinear else run.result.ductility_factors)
+        k1_apart=own_fits, ductility=None if bilinear else run.result.ductility_factors)
     check = self_check(window, run.result.params, run.reproduced.theta, run.reproduced.a)
     misfit = check.misfit.as_dict()
     evidence = list(check.evidence)
@@ -224,7 +226,7 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
         result = result.with_cumulative_ductility(baseline, store.peak_rotations_before(window))
     run = replace(run, result=result.with_evidence(
         check.energy_index, evidence, misfit,
-        fit_limits=section_fit_limits(checked, window),
+        fit_limits=section_fit_limits(checked, window, k1_too=own_fits),
         measured_levels=window.coverage.motion))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)

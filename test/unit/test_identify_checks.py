@@ -121,7 +121,9 @@ def test_the_ductility_judged_is_the_one_the_result_reports(windows):
 
 def test_a_damper_or_k2_at_its_limit_is_its_sections_own(windows):
     """A ``c`` out of range or a ``k2`` at its cap is returned per section, and with
-    ``sections_apart`` left out of the whole event's reasons; ``k1`` and DF stay there."""
+    ``sections_apart`` left out of the whole event's reasons; ``k1`` and DF stay there,
+    but where every section was fitted on its own (``k1_too``, ``k1_apart``) ``k1`` is its
+    section's too."""
     w = windows[0]
     params, reproduced = identified(w)
     d = w.design
@@ -140,6 +142,12 @@ def test_a_damper_or_k2_at_its_limit_is_its_sections_own(windows):
     everything = check_identification(odd, reproduced, w)
     assert set(everything) == set(whole) | {r for sec in local for _, r in sec}
     assert section_fit_limits(params, w) == [[], [], [], []]
+    # every section fitted on its own (the equation-error route): k1 is its section's too
+    own = section_fit_limits(odd, w, k1_too=True)
+    assert [[q for q, _ in r] for r in own] == [["k1"], ["k2", "c"], [], ["c"]]
+    assert own[0][0][1] == whole[0]
+    assert check_identification(odd, reproduced, w, sections_apart=True, k1_apart=True) == []
+    assert check_identification(odd, reproduced, w, k1_apart=True) == everything
 
 
 def test_mismatched_shapes_are_an_input_data_error(windows):

@@ -553,3 +553,26 @@ def test_reproduced_responses_that_misfit_every_level_with_a_model_misfit_are_th
     assert true_df[0] > 1.15 and yielded[0]  # the base yielded: never intact, never lost
     saved = load_result(outcome.paths.result_json)
     assert saved.model_misfit["reproduction_misfits"] == misfit["reproduction_misfits"]
+
+
+def test_a_collapsed_k1_of_the_equation_error_fit_is_its_sections_own(tmp_path):
+    """The held-out suite's draw 618 (Table 1 pier, modified-Takeda springs, full layout):
+    the equation-error fit of the elastic fifth section collapses to a ``k1`` of 0.04 of the
+    design.  Each section's spring answers its own moment there, so that is the section's
+    (rule 10): it is suspicious with its ``k1`` and DF flagged, and the event stays
+    reliable; the yielded base is damaged at its DF (2.90 against a true 2.72; the whole
+    event had been unreliable)."""
+    from pier_monitor.bench_heldout import heldout_case, identify_default
+
+    window, _, true_df, yielded, _ = heldout_case("table1", "full", 618, "takeda")
+    outcome, _ = identify_default(window, ResultsStore(tmp_path), 618)
+    result = outcome.result
+    assert outcome.status == "identified" and not result.unreliable_reasons
+    fifth = result.sections[4]
+    assert fifth.state == "suspicious" and {"k1", "DF"} <= set(fifth.poorly_identified)
+    assert any(e.startswith(f"{FIT_AT_LIMIT}: section 5: k1 = ") and "is near zero" in e
+               for e in fifth.evidence)
+    base = result.sections[0]
+    assert yielded[0] and base.state == "damaged"
+    assert base.ductility_factor == pytest.approx(true_df[0], rel=0.12)
+    assert all(s.state != "damaged" for s, y in zip(result.sections, yielded) if not y)

@@ -10,7 +10,8 @@ when there are none):
 * ``k2`` sits at its cap, or ``c`` is near zero (or far above) relative to the design
   damping, or, without one, to a 2 % stiffness-proportional damping of the first mode
   (these two are one section's: :func:`section_fit_limits` returns them per section, and
-  with ``sections_apart`` :func:`check_identification` leaves them to it);
+  with ``sections_apart`` :func:`check_identification` leaves them to it; so is ``k1``
+  where every section was fitted on its own, ``k1_apart``);
 * a ductility factor is implausible (above ``max_df``);
 * the reproduced responses depart from the measured ones, per level and quantity, by more
   than ``misfit_rel`` plus ``misfit_noise`` standard deviations of the measurement noise
@@ -80,6 +81,7 @@ def _reference_damping(window: MeasuredWindow) -> np.ndarray:
 def check_identification(params: SpringParameters, reproduced: Reproduced,
                          window: MeasuredWindow, limits: CheckLimits | None = None, *,
                          sections_apart: bool = False, misfits_apart: bool = False,
+                         k1_apart: bool = False,
                          ductility: np.ndarray | None = None) -> list[str]:
     """Reasons why an identification of ``window`` should not be believed (empty: none).
 
@@ -98,6 +100,10 @@ def check_identification(params: SpringParameters, reproduced: Reproduced,
     misfits_apart : bool
         Leave out the reasons of :func:`reproduction_misfits` (the reproduced responses'
         misfit per level): the caller judges whose misfit it is.
+    k1_apart : bool
+        With ``sections_apart``, leave out the ``k1`` out of its range too: the caller
+        judges it as that section's (:func:`section_fit_limits` with ``k1_too``), where
+        each section's spring was fitted to its own moment alone.
     ductility : ndarray, shape (N,), optional
         The ductility factors the result reports, judged instead of the bilinear
         ``max|θ| / (fy/k1)`` of ``params`` and the reproduced angles: a result whose
@@ -125,7 +131,8 @@ def check_identification(params: SpringParameters, reproduced: Reproduced,
         if arr.shape != (window.t.size, n):
             raise InputDataError(f"reproduced {name}: expected shape ({window.t.size}, {n}), "
                                  f"got {arr.shape}")
-    reasons = [r for i in range(n) for r in _k1_reasons(params, window, lim, i)]
+    reasons = ([] if sections_apart and k1_apart
+               else [r for i in range(n) for r in _k1_reasons(params, window, lim, i)])
     if not sections_apart:
         reasons += [r for sec in section_fit_limits(params, window, lim) for _, r in sec]
     theta = np.asarray(reproduced.theta)
@@ -164,11 +171,21 @@ def _k1_reasons(params: SpringParameters, window: MeasuredWindow, lim: CheckLimi
 
 
 def section_fit_limits(params: SpringParameters, window: MeasuredWindow,
-                       limits: CheckLimits | None = None) -> list[list[tuple[str, str]]]:
+                       limits: CheckLimits | None = None, *, k1_too: bool = False
+                       ) -> list[list[tuple[str, str]]]:
     """Per section, where its fit ended at a limit: ``("k2", reason)`` for ``k2`` at its cap
     ``k2_cap k1``, ``("c", reason)`` for ``c`` outside ``c_ratio`` of the reference damping
-    (the design's, else 2 % of critical in the first mode).  One list per section (empty:
-    none).
+    (the design's, else 2 % of critical in the first mode), and with ``k1_too``
+    ``("k1", reason)`` for ``k1`` outside ``k1_ratio`` of the design.  One list per section
+    (empty: none).
+
+    ``k1_too`` is for the equation-error fit, where each section's spring answers its own
+    measured moment and angle alone: a ``k1`` that collapses there (an elastic upper section
+    of the Table 1 pier whose small rotations the fit reads as a soft spring: 0.035-0.04 of
+    the design, RC test-bed tuning seed 301, BWBN, strong, and the held-out suite's Takeda
+    draw 618) changes no other section's fit.  The field reconstruction fits every spring
+    to one reconstructed motion, so there a ``k1`` out of range stays the whole result's
+    (:func:`check_identification`).
 
     Such a spring's damping or post-yield slope is not identified, and its ``fy`` and DF
     with it (a damper that runs off takes or leaves the dissipation that the spring's loop
@@ -187,7 +204,7 @@ def section_fit_limits(params: SpringParameters, window: MeasuredWindow,
     for i in range(params.n_springs):
         sec = f"section {i + 1}"
         k1, k2 = params.k1[i], params.k2[i]
-        reasons = []
+        reasons = [("k1", r) for r in _k1_reasons(params, window, lim, i)] if k1_too else []
         if k2 >= lim.k2_cap * k1 * (1.0 - lim.bound_tol):
             reasons.append(("k2", f"{sec}: k2 = {k2:.3g} N·m/rad sits at its bound "
                                   f"{lim.k2_cap:g} k1"))
