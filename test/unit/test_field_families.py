@@ -197,7 +197,7 @@ def test_auto_keeps_the_equation_error_fit_where_the_reconstruction_misfits_too(
     base and section 2 at DF 0.90 and 0.97 (true 3.35 and 1.94); the equation-error fit,
     kept, reads them off the measured loops at 2.21 and 1.87.  Bilinear springs with
     uncalibrated sensors (the held-out suite's tuning draw 633, Table 1 pier): the
-    reconstruction fits, and is taken."""
+    reconstruction fits, and is taken.  A kept fit draws its ensemble as any other."""
     syn = field_case_recording("table1", "full", False, "strong", 300, hysteresis="bwbn")
     window, _, _ = _field_window(syn, "table1/full/strong/300/bwbn")
     truth = syn.truth.runs[0].rc
@@ -209,6 +209,12 @@ def test_auto_keeps_the_equation_error_fit_where_the_reconstruction_misfits_too(
     assert truth.yielded[:2].all() and not truth.yielded[2:].any()
     assert 1.5 < df[0] < truth.ductility_factor[0]  # 2.21 against 3.35 (the field: 0.90)
     assert df[1] == pytest.approx(truth.ductility_factor[1], rel=0.10)  # 1.87 against 1.94
+    # with the default ensemble the kept fit draws its own members (its intervals)
+    kept = identify(window, IdentifySettings(seed=300)).result
+    assert "kept over the field reconstruction" in kept.message
+    assert kept.sections[0].ductility_factor == pytest.approx(df[0])
+    assert all(s.uncertainty is not None and s.uncertainty.members == 16
+               for s in kept.sections)
 
     window, _, _, _, _ = heldout_case("table1", "full", 633, "bilinear")
     result = identify(window, IdentifySettings(members=1, seed=633)).result
