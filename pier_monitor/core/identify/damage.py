@@ -1368,9 +1368,9 @@ def poorly_identified(section: SectionResult, ends_measured: bool = True) -> tup
     (``uncertainty`` None or one member) nothing is flagged: there is no interval.
 
     ``k1`` and ``c`` are poorly identified whatever their interval where a level at either
-    end of the section has no sensor (``ends_measured`` False).  The stiffnesses of neighbouring
-    sections between unmeasured levels trade off against each other and against the masses
-    interpolated at those levels, a model error the members cannot see: on the coverage
+    end of the section has no sensor (``ends_measured`` False).  The stiffnesses of
+    neighbouring sections between unmeasured levels trade off against each other and against
+    the masses interpolated at those levels, a model error the members cannot see: on the coverage
     benchmark (E-Defense pier, "sparse" layout, accelerometers at levels 2 and 4 only,
     held-out seeds 200-204) sections 1-3 were off by 3-7 %, 11-26 % and 5-12 % alike in
     every seed, with their intervals' k1 coverage 65 % (strong) and 70 % (just_yield) even
@@ -1399,7 +1399,8 @@ def poorly_identified(section: SectionResult, ends_measured: bool = True) -> tup
         if name in ("k2", "fy") and not section.yielded:
             continue
         unmeasured_end = not ends_measured and (
-            name in ("k1", "c") or (name == "DF" and (section.yielded or u.p_yielded >= P_YIELD_LOW)))
+            name in ("k1", "c")
+            or (name == "DF" and (section.yielded or u.p_yielded >= P_YIELD_LOW)))
         if _too_wide(spreads[name], name) or unmeasured_end:
             out.append(name)  # NaN (an interval of one member or none) is no interval
     return tuple(out)
