@@ -826,13 +826,14 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     if settings.method == "auto" and method.name == "equation_error":
         # the ensemble only for the fit that is kept: one member to choose by
         first = method.run(window, replace(settings, members=1), callback)
-        out, kept = _better_of_fits(window, requested, first, callback)
-        if out is not first:  # the field reconstruction, with its own members
+        choice = _better_of_fits(window, requested, first, callback)
+        out = choice.output
+        if choice.field_taken:  # the field reconstruction, with its own members
             settings = with_members(requested, "field")
         elif settings.members > 1:
             out = method.run(window, settings, callback, first=first)
-        if kept:  # why the field reconstruction was not taken
-            out = replace(out, message=f"{out.message}{kept}")
+        if choice.note:  # why the field reconstruction was not taken
+            out = replace(out, message=f"{out.message}{choice.note}")
     else:
         out = method.run(window, settings, callback)
     yielded, yield_angles = out.yielded, None
@@ -914,8 +915,20 @@ def with_members(settings: IdentifySettings, route: str) -> IdentifySettings:
     return replace(settings, members=DEFAULT_MEMBERS[route])
 
 
+@dataclass(frozen=True)
+class _FitChoice:
+    """What :func:`_better_of_fits` chose: ``output`` the fit to report, ``field_taken``
+    whether it is the field reconstruction (with its own members) rather than the
+    equation-error fit passed in (whose members the caller draws), ``note`` the words to add
+    to a kept equation-error fit's message (empty where there is nothing to say)."""
+
+    output: MethodOutput
+    field_taken: bool = False
+    note: str = ""
+
+
 def _better_of_fits(window: MeasuredWindow, settings: IdentifySettings, fit: MethodOutput,
-                    callback: Callable[[Progress], None] | None) -> tuple[MethodOutput, str]:
+                    callback: Callable[[Progress], None] | None) -> _FitChoice:
     """``auto`` on a fully measured window: the equation-error fit, unless its bilinear
     springs, simulated under the measured foundation motion, do not reproduce the
     measurements (:func:`~pier_monitor.core.identify.selfcheck.model_misfit`) and the field
@@ -929,28 +942,29 @@ def _better_of_fits(window: MeasuredWindow, settings: IdentifySettings, fit: Met
     Where the reconstruction misfits too, the sensors do not explain the misfit: the
     equation-error fit is kept, and its message says so.
 
-    Returns ``(output, kept)``: ``fit`` itself where it is kept (the caller then draws its
-    members), else the reconstruction; ``kept`` the words to add to the kept fit's message
-    where the reconstruction was tried and misfit beyond the limit (else empty).
+    The note of a kept fit says why, where the reconstruction was tried and misfit beyond
+    the limit.
     """
     if fit.family is not None and fit.family.family != "bilinear":
-        return fit, ""
+        return _FitChoice(fit)
     first = model_misfit(window, fit.params)
     if not first.fires:
-        return fit, ""
+        return _FitChoice(fit)
     other = FieldMethod().run(window, with_members(settings, "field"), callback)
     second = model_misfit(window, other.params)
     worst_first, worst_second = _misfit_ratio(first), _misfit_ratio(second)
     if not worst_second < worst_first:
-        return fit, ""
+        return _FitChoice(fit)
     if worst_second > FIELD_FALLBACK_MAX_MISFIT:
-        return fit, (f"; kept over the field reconstruction, whose simulation misfits the "
-                     f"measurements too, at {worst_second:.2f} of its allowance (more than "
-                     f"{FIELD_FALLBACK_MAX_MISFIT:g}: not the sensors' gains) against "
-                     f"{worst_first:.2f}")
-    return replace(other, message=(
+        return _FitChoice(fit, note=(
+            f"; kept over the field reconstruction, whose simulation misfits the "
+            f"measurements too, at {worst_second:.2f} of its allowance (more than "
+            f"{FIELD_FALLBACK_MAX_MISFIT:g}: not the sensors' gains) against "
+            f"{worst_first:.2f}"))
+    return _FitChoice(replace(other, message=(
         f"{other.message}; chosen over the equation-error fit, whose simulation misfits the "
-        f"measurements at {worst_first:.2f} of its allowance against {worst_second:.2f}")), ""
+        f"measurements at {worst_first:.2f} of its allowance against {worst_second:.2f}")),
+        field_taken=True)
 
 
 def _misfit_ratio(misfit: ModelMisfit) -> float:
