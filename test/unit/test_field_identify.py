@@ -199,3 +199,26 @@ def test_a_k1_ended_on_its_search_box_has_no_interval_and_is_flagged():
     flags = [poorly_identified(dataclasses.replace(s, uncertainty=u))
              for s, u in zip(result.sections, out)]
     assert "k1" in flags[0] and "k1" not in flags[1]
+
+
+def test_a_field_routes_yielded_df_interval_carries_its_resolution():
+    """Table 1 pier, accelerometers only, a drawn case of the held-out suite's kind on a
+    tuning seed (628): the base far past yield (true DF 3.44).  The members agree on its DF
+    to about ±3 % and their interval misses the truth; the field route's DF resolution
+    (``FIELD_DF_RESOLUTION``, ±6 %) is what holds it.  A section that did not yield keeps
+    its own interval (its DF a bound at 1)."""
+    from pier_monitor.bench_heldout import heldout_case
+    from pier_monitor.core.identify.uncertainty import FIELD_DF_RESOLUTION
+
+    window, _, true_df, yielded, _ = heldout_case("table1", "accel", 628)
+    assert yielded[:2].all() and not yielded[2:].any() and 3.3 < true_df[0] < 3.6
+    run = identify(window, IdentifySettings(seed=628))
+    assert list(run.stages) == ["increments", "springs", "joint"]  # the field route
+    base = run.result.sections[0]
+    df, iv = base.ductility_factor, base.uncertainty.ductility_factor
+    assert FIELD_DF_RESOLUTION == 0.06
+    assert iv.lo == pytest.approx(df * 0.94, rel=1e-9) and iv.hi >= df * 1.06 - 1e-9
+    assert iv.lo <= true_df[0] <= iv.hi
+    assert abs(df / true_df[0] - 1.0) > 0.02  # the members' own ±3 % would not hold it
+    top = run.result.sections[-1]
+    assert top.yield_status == "not yielded" and top.uncertainty.ductility_factor.hi <= 1.0

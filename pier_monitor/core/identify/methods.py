@@ -49,7 +49,8 @@ from pier_monitor.core.identify.families import (FamilyChoice,
 from pier_monitor.core.identify.field import FieldFit, FieldSettings, fit_field
 from pier_monitor.core.identify.field_families import fit_field_families
 from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
-from pier_monitor.core.identify.uncertainty import (DF_RESOLUTION, MemberResponses,
+from pier_monitor.core.identify.uncertainty import (DF_RESOLUTION, FIELD_DF_RESOLUTION,
+                                                    MemberResponses,
                                                     overall_state_probabilities,
                                                     summarize_members, with_c_resolution,
                                                     with_df_resolution, with_own_k1,
@@ -823,6 +824,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     method = choose_method(window, settings)
     requested = settings
     settings = with_members(settings, method.name)
+    field_route = method.name == "field"
     if settings.method == "auto" and method.name == "equation_error":
         # the ensemble only for the fit that is kept: one member to choose by
         first = method.run(window, replace(settings, members=1), callback)
@@ -830,6 +832,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         out = choice.output
         if choice.field_taken:  # the field reconstruction, with its own members
             settings = with_members(requested, "field")
+            field_route = True
         elif settings.members > 1:
             out = method.run(window, settings, callback, first=first)
         if choice.note:  # why the field reconstruction was not taken
@@ -851,7 +854,8 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     uncertainty = p_overall = None
     if draws is not None:
         uncertainty, p_overall = _summarize_draws(
-            draws, out.family.df_resolution if rc_family else DF_RESOLUTION)
+            draws, out.family.df_resolution if rc_family
+            else FIELD_DF_RESOLUTION if field_route else DF_RESOLUTION)
     base_k1 = window.design.k1 if baseline_k1 is None else baseline_k1
     sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
                               baseline_k1=None if rc_family else base_k1,
