@@ -419,6 +419,12 @@ class MethodOutput:
         The spring family chosen by evidence, when the method compared families; where it
         is not the bilinear, the DF and the yield decision are the family's (the
         idealised yield of its skeleton).
+    df_resolution : float
+        Relative DF resolution of a bilinear yielded section that the members do not show
+        (:func:`~pier_monitor.core.identify.uncertainty.with_df_resolution`): the fully
+        measured window's :data:`~pier_monitor.core.identify.uncertainty.DF_RESOLUTION`, the
+        field reconstruction's :data:`~pier_monitor.core.identify.uncertainty.
+        FIELD_DF_RESOLUTION`.  A family other than the bilinear has its own.
     """
 
     params: SpringParameters
@@ -434,6 +440,7 @@ class MethodOutput:
     final_loss: float = float("nan")
     history: dict[str, list[Any]] = field(default_factory=dict)
     family: FamilyChoice | None = None
+    df_resolution: float = DF_RESOLUTION
 
 
 class Method(Protocol):
@@ -513,7 +520,8 @@ class FieldMethod:
         return MethodOutput(params=fit.params, yielded=fit.yielded, reproduced=reproduced,
                             initial=fit.stages[stage_names[0]], stages=dict(fit.stages),
                             draws=draws, member_responses=member_responses, device="cpu",
-                            message=message, family=family)
+                            message=message, family=family,
+                            df_resolution=FIELD_DF_RESOLUTION)
 
 
 class PinnMethod:
@@ -824,7 +832,6 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     method = choose_method(window, settings)
     requested = settings
     settings = with_members(settings, method.name)
-    field_route = method.name == "field"
     if settings.method == "auto" and method.name == "equation_error":
         # the ensemble only for the fit that is kept: one member to choose by
         first = method.run(window, replace(settings, members=1), callback)
@@ -832,7 +839,6 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         out = choice.output
         if choice.field_taken:  # the field reconstruction, with its own members
             settings = with_members(requested, "field")
-            field_route = True
         elif settings.members > 1:
             out = method.run(window, settings, callback, first=first)
         if choice.note:  # why the field reconstruction was not taken
@@ -854,8 +860,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     uncertainty = p_overall = None
     if draws is not None:
         uncertainty, p_overall = _summarize_draws(
-            draws, out.family.df_resolution if rc_family
-            else FIELD_DF_RESOLUTION if field_route else DF_RESOLUTION)
+            draws, out.family.df_resolution if rc_family else out.df_resolution)
     base_k1 = window.design.k1 if baseline_k1 is None else baseline_k1
     sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
                               baseline_k1=None if rc_family else base_k1,
