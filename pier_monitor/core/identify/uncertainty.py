@@ -75,8 +75,8 @@ DF_RESOLUTION = 0.015
 #: neighbouring springs.  Chosen on the held-out suite's tuning draws (seeds 620-655 of
 #: :func:`~pier_monitor.bench_heldout.heldout_case`, bilinear springs, accelerometers at
 #: every level, both piers, 72 runs, 121 yielded sections): the 90 % DF intervals held the
-#: truth in 82 % of them with 1.5 %, 88 % with 5 %, 91 % with 6 % (Table 1 95 %, E-Defense
-#: 87 %).  The sections still missed are all but four reported not yielded (true DF
+#: truth in 83 % of them with 1.5 % (100 of 121), 88 % with 5 %, 91 % with 6 % (Table 1
+#: 95 %, E-Defense 87 %).  The sections still missed are all but four reported not yielded (true DF
 #: 1.07-1.6, the DF a bound at 1), which no floor reaches; the four are 10-11 % low.
 FIELD_DF_RESOLUTION = 0.06
 
