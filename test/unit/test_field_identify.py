@@ -222,3 +222,31 @@ def test_a_field_routes_yielded_df_interval_carries_its_resolution():
     assert abs(df / true_df[0] - 1.0) > 0.02  # the members' own ±3 % would not hold it
     top = run.result.sections[-1]
     assert top.yield_status == "not yielded" and top.uncertainty.ductility_factor.hi <= 1.0
+
+
+def test_a_yield_test_just_short_makes_an_elastic_reading_suspicious_and_stays():
+    """E-Defense pier, accelerometers only, the held-out suite's tuning draw 655: section 2
+    truly yielded (true DF 1.60, past twice the yield strain), but the fit's yield test
+    gained 0.78 of its remaining chi-square, short of the 2 that calls it yielded, and only
+    one member in 32 yielded (rule 3 does not fire).  Rule 13 makes it suspicious with the
+    test's share in the reason, never intact; the self-check's evidence keeps the line once
+    (``with_evidence``), and a section whose test gained nothing stays as it was."""
+    from pier_monitor.bench_heldout import heldout_case
+    from pier_monitor.core.identify.damage import P_YIELD_LOW, YIELD_TEST_SHORT
+
+    window, _, true_df, yielded, _ = heldout_case("edefense", "accel", 655)
+    assert yielded[1] and 1.5 <= true_df[1] < 1.7
+    result = identify(window, IdentifySettings(seed=655)).result
+    s2 = result.sections[1]
+    assert not s2.yielded and s2.uncertainty.p_yielded < P_YIELD_LOW
+    assert s2.state == "suspicious"
+    line = next(r for r in s2.reasons if r.startswith(YIELD_TEST_SHORT))
+    share = float(line.split("chi-square by ")[1].split(" of")[0])
+    assert 0.5 <= share < 2.0
+    assert s2.evidence == (line,)
+    top = result.sections[-1]
+    assert top.evidence == () and top.state == "intact"
+    checked = result.with_evidence(np.zeros(4), [("hysteretic energy",)] * 4)
+    assert checked.sections[1].evidence == (line, "hysteretic energy")
+    assert checked.sections[1].reasons.count(line) == 1
+    assert checked.sections[1].state == "suspicious"

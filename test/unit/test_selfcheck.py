@@ -13,6 +13,7 @@ from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DAMAGED,
                                                SPLIT_UNMEASURED, split_unmeasured_evidence,
                                                YIELD_OUT_OF_REACH, yield_out_of_reach_evidence,
+                                               YIELD_TEST_SHORT, yield_test_evidence,
                                                IdentificationResult, build_sections,
                                                overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
@@ -449,6 +450,20 @@ def test_a_yield_out_of_reach_flags_its_neighbours_only_where_one_of_them_yielde
     assert yield_out_of_reach_evidence([3.0, 0.1], [True, False], None) == [(), ()]
     with pytest.raises(InputDataError, match="expected 2 entries"):
         yield_out_of_reach_evidence([3.0, 0.1], [True, False], [1.0])
+
+
+def test_a_yield_test_just_short_gives_evidence_on_unyielded_springs_only():
+    """Rule 13: a line where an unyielded spring's share reaches the hint share; none where
+    it yielded, fell short of the hint, or was not tested (NaN); none without shares."""
+    lines = yield_test_evidence([False, True, False, False], [0.78, 5.0, 0.2, np.nan],
+                                0.5, 2.0)
+    assert lines[1:] == [(), (), ()]
+    assert lines[0] == (f"{YIELD_TEST_SHORT}: holding section 1's spring elastic raises the "
+                        "fit's chi-square by 0.78 of what the fit leaves (yielded from 2, may "
+                        "have yielded from 0.5)",)
+    assert yield_test_evidence([False, False], None, 0.5, 2.0) == [(), ()]
+    with pytest.raises(InputDataError, match="expected 2 entries"):
+        yield_test_evidence([False, False], [1.0], 0.5, 2.0)
 
 
 def test_identify_window_reports_the_misfit_and_a_faulty_sensor_makes_it_unreliable(

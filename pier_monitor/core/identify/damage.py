@@ -95,6 +95,15 @@ applies with or without an ensemble, and only raises a state
     same failure on its RC seeds 616 and 618 (Table 1, accelerometers: ratios 94 and 20 at
     the base, read DF 0.04 and 0.13 against 4.14 and 2.72) had been seen before the rule
     was made, so those draws are no longer held out for it.
+13. on the field reconstruction with bilinear springs, a section reported not yielded, both
+    of whose end levels are measured, whose spring reaches its fitted yield line and whose yield test gained at least
+    ``FieldSettings.yield_hint_share`` (0.5) of the fit's remaining chi-square, short of the
+    ``yield_share`` (2) that calls it yielded, "may have yielded" by the fit's own test
+    (:func:`yield_test_evidence`, the evidence :data:`YIELD_TEST_SHORT`): at least
+    suspicious, kept as the self-check's evidence is.  Rule 3 reads the members, whose yield
+    tests a share near the threshold splits so that few of them yield: on the held-out
+    suite's tuning draws (E-Defense, accelerometers, seed 655) section 2 at a true DF of 1.60
+    was reported intact with P(yield) 0.03 and a share of 0.78.
 
 A section's state probabilities (``uncertainty.p_state``, the members' shares) follow the
 self-check's evidence as its state does (:func:`_p_state_with_evidence`): the members never
@@ -140,6 +149,9 @@ __all__ = [
     "yield_out_of_reach_evidence",
     "YIELD_OUT_OF_REACH",
     "MAX_YIELD_ROTATION_RATIO",
+    "YIELD_TEST_SHORT",
+    "yield_test_evidence",
+    "with_section_evidence",
     "ductility_factors",
     "SectionResult",
     "IdentificationResult",
@@ -222,6 +234,9 @@ YIELD_OUT_OF_REACH = "yield out of reach"
 #: On the three-level layout (seeds 620-645, Table 1, 150 sections) one section passed 10:
 #: seed 628, section 2 at 13.6, true DF 2.77 read 0.14 (a degenerate spring too).
 MAX_YIELD_ROTATION_RATIO = 10.0
+#: Rule 13's evidence: a section reported elastic whose yield test fell short of calling it
+#: yielded by less than its hint share (:func:`yield_test_evidence`).
+YIELD_TEST_SHORT = "may have yielded by the yield test"
 
 #: A section is reported "not yielded" only while the probability that its spring yielded
 #: (the share of the ensemble's members) is below this.
@@ -374,6 +389,74 @@ def split_unmeasured_evidence(ductility: Sequence[float] | np.ndarray,
         for j in span:
             out[j] = (line,)
     return out
+
+
+def yield_test_evidence(yielded: Sequence[bool] | np.ndarray,
+                        gain_share: Sequence[float] | np.ndarray | None,
+                        hint_share: float, yield_share: float) -> list[tuple[str, ...]]:
+    """Rule 13's evidence per section: a line for each section reported not yielded whose
+    yield test's gain reached ``hint_share`` of the fit's remaining chi-square (short of
+    ``yield_share``, which calls a spring yielded); none otherwise.
+
+    Parameters
+    ----------
+    yielded : sequence of bool, shape (N,)
+        Whether each section is reported yielded.
+    gain_share : sequence of float, shape (N,), or None
+        The field reconstruction's yield test per spring
+        (:attr:`~pier_monitor.core.identify.field.FieldFit.yield_gain_share`: the rise of
+        the chi-square when the spring is held elastic over the remaining chi-square; NaN
+        where the yield line is never reached).  None or empty: no evidence.
+    hint_share, yield_share : float
+        The share from which a section "may have yielded", and the one that calls it
+        yielded (``FieldSettings.yield_hint_share``, ``yield_share``).
+
+    Raises
+    ------
+    InputDataError
+        If ``gain_share`` does not have one entry per section.
+    """
+    y = np.asarray(yielded, dtype=bool)
+    n = y.size
+    if gain_share is None or np.size(gain_share) == 0:
+        return [()] * n
+    share = np.asarray(gain_share, dtype=float)
+    if share.shape != (n,):
+        raise InputDataError(f"yield test shares: expected {n} entries, got shape "
+                             f"{share.shape}")
+    return [(f"{YIELD_TEST_SHORT}: holding section {i + 1}'s spring elastic raises the "
+             f"fit's chi-square by {share[i]:.2f} of what the fit leaves (yielded from "
+             f"{yield_share:g}, may have yielded from {hint_share:g})",)
+            if not y[i] and np.isfinite(share[i]) and share[i] >= hint_share else ()
+            for i in range(n)]
+
+
+def with_section_evidence(sections: Sequence[SectionResult],
+                          evidence: Sequence[Sequence[str]]) -> tuple[SectionResult, ...]:
+    """``sections`` with each one's ``evidence`` (N sequences of reason lines) added to its
+    own and applied as the self-check's is: a diagnosed section with evidence is at least
+    suspicious, with the reasons, and its state probabilities follow
+    (:func:`_p_state_with_evidence`).  For evidence the identification itself gives (rule
+    13); :meth:`IdentificationResult.with_evidence` keeps it beside the self-check's.
+
+    Raises
+    ------
+    InputDataError
+        If ``evidence`` does not have one entry per section.
+    """
+    if len(evidence) != len(sections):
+        raise InputDataError(f"section evidence: expected {len(sections)} entries, got "
+                             f"{len(evidence)}")
+    out = []
+    for s, ev in zip(sections, evidence):
+        ev = tuple(str(r) for r in ev)
+        if ev and is_diagnosis(s.damage_state):
+            state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
+            s = replace(s, state=state.name.lower(), reasons=reasons,
+                        evidence=(*s.evidence, *ev),
+                        uncertainty=_p_state_with_evidence(s.uncertainty, ev, False))
+        out.append(s)
+    return tuple(out)
 
 
 def yield_out_of_reach_evidence(ductility: Sequence[float] | np.ndarray,
@@ -1107,6 +1190,8 @@ class IdentificationResult:
         family was chosen, a section whose yield rotation is out of reach, and its
         neighbours where one of them yielded, get rule 12's line
         (:func:`yield_out_of_reach_evidence`) and ``DF`` in their ``poorly_identified``.
+        The evidence the identification gave itself (rule 13, :func:`with_section_evidence`)
+        stays, first, and is not applied again.
 
         Parameters
         ----------
@@ -1148,7 +1233,10 @@ class IdentificationResult:
             (self.family or {}).get("yield_rotation_vs_design") if rc_family else None)
         sections = []
         for s, e, ev, lim, sp, far in zip(self.sections, energy, evidence, limits, split, reach):
-            ev = tuple(str(r) for r in ev)
+            # the identification's own evidence (rule 13), already applied, stays beside
+            # the self-check's
+            own = s.evidence
+            ev = tuple(r for r in (str(r) for r in ev) if r not in own)
             if sp and is_diagnosis(s.damage_state):  # rule 11
                 ev = (*ev, *sp)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "DF"))
@@ -1162,7 +1250,7 @@ class IdentificationResult:
                 ev = (*ev, *(f"{FIT_AT_LIMIT}: {r}: its DF is not identified" for _, r in lim))
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified,
                                                           *(q for q, _ in lim), "DF"))
-            s = replace(s, energy_index=float(e), evidence=ev)
+            s = replace(s, energy_index=float(e), evidence=(*own, *ev))
             if is_diagnosis(s.damage_state) and (ev or misfit):
                 state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
                 if misfit:  # rule 9

@@ -87,6 +87,21 @@ class FieldSettings:
         ensemble's member weighs its gain against the fit's remaining chi-square, not its
         own where both end levels of its section are measured (see
         :func:`_perturbed_members`).
+    yield_hint_share : float
+        A spring reported elastic whose yield line the fit reaches, and whose gain from
+        yielding is at least this share of the fit's remaining chi-square (short of
+        ``yield_share``), "may have yielded": its section is at least suspicious
+        (:func:`~pier_monitor.core.identify.damage.yield_test_evidence`).  The members'
+        yield decisions rarely see it (a share near the threshold is where the members of
+        the remaining chi-square split).  Chosen on the held-out suite's tuning draws
+        (seeds 620-655 of :func:`~pier_monitor.bench_heldout.heldout_case`, bilinear springs,
+        accelerometers at every level, both piers, 72 runs): of 18 sections that yielded
+        but were reported elastic (true DF 1.01-1.60), 9 reached 0.5 (the two past 1.3: DF
+        1.41 and 1.60, section 2 of the E-Defense pier, seeds 642 and 655, the latter
+        reported intact with P(yield) 0.03), while 13 of 238 elastic sections did (true DF
+        0.62-0.99, 11 of them above 0.88); at 1.0, 5 and 5 (the 1.41 not); at 0.3, 10 and
+        16.  Applied where both end levels of the section are measured (see
+        :class:`~pier_monitor.core.identify.methods.FieldMethod`).
     misfit_floor : float
         Expected misfit of the reconstructed displacements, as a share of each level's
         signal: the sensors' gain errors and the model's own error, far above the noise.
@@ -117,6 +132,7 @@ class FieldSettings:
     max_nfev: int = 200
     yield_chi2: float = 13.8
     yield_share: float = 2.0
+    yield_hint_share: float = 0.5
     misfit_floor: float = 0.01
     decorrelation: float = 20.0
     disp_decorrelation_s: float = 1.0
@@ -174,6 +190,10 @@ class FieldFit:
         measured (detrended) displacement; NaN where not measured.
     members : FieldMembers or None
         The ensemble, when one was asked for.
+    yield_gain_share : ndarray, shape (N,)
+        Per spring, the rise of the accelerations' chi-square when it is held elastic over
+        the fit's remaining chi-square (the share test of ``FieldSettings.yield_share``); NaN
+        where the fitted yield line is never reached (no test).
     """
 
     params: SpringParameters
@@ -186,6 +206,7 @@ class FieldFit:
     v: np.ndarray
     misfit: np.ndarray = field(default_factory=lambda: np.zeros(0))
     members: FieldMembers | None = None
+    yield_gain_share: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 class _FieldProblem:
@@ -514,7 +535,7 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
     # the smallest moment, explains too easily
     base_cost = float(np.sum(sol.fun[:pb.t_len * pb.acc.size] ** 2))
 
-    yielded = _yield_decision(pb, p, eps, base_cost, settings)
+    yielded, gain_share = _yield_decision(pb, p, eps, base_cost, settings)
     p_model = pb.held_elastic(p, ~yielded)  # elastic springs stay elastic
     g_fit = pb.moments(eps)
     theta, moment = pb.angles(p_model, g_fit)
@@ -534,7 +555,7 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
     misfit = np.full(n, np.nan)
     misfit[pb.acc] = np.sqrt(np.mean(res ** 2, axis=0)) / pb.scale
     out = FieldFit(params=params, stages=stages, yielded=yielded, gains=gains, theta=theta,
-                   moment=moment, x=x, v=v, misfit=misfit)
+                   moment=moment, x=x, v=v, misfit=misfit, yield_gain_share=gain_share)
     if members > 1 and (members_if is None or members_if(out)):
         ensemble = _perturbed_members(window, settings, pb, sol, (lo, hi, scales), members, seed,
                                       _fit_residuals(pb, p, eps, settings))
@@ -544,24 +565,28 @@ def fit_field(window: MeasuredWindow, settings: FieldSettings | None = None,
 
 def _yield_decision(pb: _FieldProblem, p: np.ndarray, eps: np.ndarray, base_cost: float,
                     settings: FieldSettings, share_cost: np.ndarray | None = None
-                    ) -> np.ndarray:
-    """Which springs yielded (N,) bool: does holding a spring elastic worsen the fit?
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Which springs yielded (N,) bool: does holding a spring elastic worsen the fit?  And
+    each spring's gain over ``share_cost`` (N,), NaN where not tested.
 
     The likelihood-ratio test of ``yield_chi2`` and ``yield_share`` on the chi-square of the
     accelerations' residuals (``base_cost``: that of the fit ``p``, ``eps``).  The share
     test weighs each spring's gain against ``share_cost`` (N,) where given (default
-    ``base_cost``): see :func:`_perturbed_members`."""
+    ``base_cost``): see :func:`_perturbed_members`.  A spring whose fitted yield lines are
+    never reached is not tested."""
     share_cost = np.broadcast_to(base_cost if share_cost is None else share_cost, (pb.n,))
     n_acc = pb.t_len * pb.acc.size
     yielded = np.zeros(pb.n, dtype=bool)
+    share = np.full(pb.n, np.nan)
     for i in range(pb.n):
         if np.exp(p[i, 2]) * (1.0 - abs(p[i, 4])) >= pb.f_max[i]:
             continue  # the fitted yield lines are never reached
         pe = pb.held_elastic(p, np.arange(pb.n) == i)
         cost_el = float(np.sum(pb.residual(pe, eps)[:n_acc] ** 2))
         gain = cost_el - base_cost
+        share[i] = gain / share_cost[i] if share_cost[i] > 0 else np.inf
         yielded[i] = gain > settings.yield_chi2 and gain > settings.yield_share * share_cost[i]
-    return yielded
+    return yielded, share
 
 
 def _gauss_newton(res: Callable[[np.ndarray], np.ndarray], z0: np.ndarray, jac: np.ndarray,
@@ -758,7 +783,7 @@ def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _Fie
         if m == 0:
             fit_base = base
         yielded[m] = _yield_decision(pm, p, eps, base, settings,
-                                     share_cost=np.where(ends_measured, fit_base, base))
+                                     share_cost=np.where(ends_measured, fit_base, base))[0]
         p_model = pm.held_elastic(p, ~yielded[m])
         g = pm.moments(eps)
         theta[m], moment[m] = pm.angles(p_model, g)

@@ -40,7 +40,8 @@ from pier_monitor.core.errors import IdentificationError, InputDataError
 from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, IdentificationResult,
                                                build_sections, k1_change_pct, member_ductility,
-                                               overall_state, with_family, with_identifiability)
+                                               overall_state, with_family, with_identifiability,
+                                               with_section_evidence, yield_test_evidence)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
 from pier_monitor.core.identify.families import (FamilyChoice,
@@ -425,6 +426,10 @@ class MethodOutput:
         measured window's :data:`~pier_monitor.core.identify.uncertainty.DF_RESOLUTION`, the
         field reconstruction's :data:`~pier_monitor.core.identify.uncertainty.
         FIELD_DF_RESOLUTION`.  A family other than the bilinear has its own.
+    section_evidence : tuple of tuple of str
+        Per section, reasons from the method's own tests that make it at least suspicious
+        (rule 13 of :mod:`~pier_monitor.core.identify.damage`: a yield test that fell just
+        short); empty: none.  Applied to the bilinear springs only.
     """
 
     params: SpringParameters
@@ -441,6 +446,7 @@ class MethodOutput:
     history: dict[str, list[Any]] = field(default_factory=dict)
     family: FamilyChoice | None = None
     df_resolution: float = DF_RESOLUTION
+    section_evidence: tuple[tuple[str, ...], ...] = ()
 
 
 class Method(Protocol):
@@ -517,11 +523,24 @@ class FieldMethod:
                    f"({', '.join(stage_names)})"
                    + (f", {settings.members} members" if fit.members is not None else "")
                    + (f"; {family.reason}" if family is not None else ""))
+        fs = settings.field_settings
+        # rule 13 where both ends of a section are measured: between an unmeasured level and
+        # its neighbours the fit's yield test weighs how the rotation is split, which the
+        # accelerations hardly tell (three-level layout, tuning draws 620-655: 17 of 188
+        # elastic sections reached the hint share, down to a true DF of 0.19, and 2 of 7
+        # yielded ones read elastic, none past 1.1)
+        measured = window.coverage.acceleration | window.coverage.displacement
+        ends_measured = measured & np.r_[True, measured[:-1]]  # the foundation is measured
+        share = (np.where(ends_measured, fit.yield_gain_share, np.nan)
+                 if fit.yield_gain_share.size else fit.yield_gain_share)
         return MethodOutput(params=fit.params, yielded=fit.yielded, reproduced=reproduced,
                             initial=fit.stages[stage_names[0]], stages=dict(fit.stages),
                             draws=draws, member_responses=member_responses, device="cpu",
                             message=message, family=family,
-                            df_resolution=FIELD_DF_RESOLUTION)
+                            df_resolution=FIELD_DF_RESOLUTION,
+                            section_evidence=tuple(yield_test_evidence(
+                                fit.yielded, share, fs.yield_hint_share,
+                                fs.yield_share)))
 
 
 class PinnMethod:
@@ -875,6 +894,8 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     sections = with_identifiability(
         sections, None if window.coverage is None
         else window.coverage.acceleration | window.coverage.displacement)
+    if out.section_evidence and not rc_family:  # the bilinear springs' own tests (rule 13)
+        sections = with_section_evidence(sections, out.section_evidence)
     result = IdentificationResult(
         pier_id=window.pier_id, event_id=window.event_id, sections=sections,
         overall_state=overall_state(sections), window_start_s=float(window.t[0]),
