@@ -75,6 +75,13 @@ TUNING = {
     "field_df_resolution": ("FIELD_DF_RESOLUTION 6 % (the field route's bilinear; was 1.5 %): "
                             "heldout suite, accel, both piers, tuning seeds 620-655 (121 "
                             "yielded sections: DF coverage 83 % -> 91 %)"),
+    "field_yield_hint_share": ("FieldSettings.yield_hint_share 0.5 (rule 13: a field yield test "
+                               "short of 2 but at least 0.5 makes a section with both end "
+                               "levels measured suspicious): heldout suite, accel and sparse, "
+                               "both piers, tuning seeds 620-655 (accel: 9 of 18 yielded "
+                               "sections read elastic caught, 13 of 238 elastic ones made "
+                               "suspicious; sparse: 17 of 188 elastic, hence both ends "
+                               "measured only)"),
     "c_resolution": "C_RESOLUTION 2 %: heldout suite, every layout, tuning seeds 620-627",
     "field_k1_box": ("the field fit's k1 box holds the design value as well as the start: "
                      "found on held-out seed 602 (Table 1, accel, top section -32 % on the "

@@ -250,3 +250,29 @@ def test_a_yield_test_just_short_makes_an_elastic_reading_suspicious_and_stays()
     assert checked.sections[1].evidence == (line, "hysteretic energy")
     assert checked.sections[1].reasons.count(line) == 1
     assert checked.sections[1].state == "suspicious"
+
+
+def test_a_rotation_small_beside_what_gain_errors_make_leaves_k1_poorly_identified():
+    """Table 1 pier, accelerometers only, the held-out suite's tuning draw 636: sections 4
+    and 5 stay elastic with rotations 1.7 and 1.3 times what a 1 % gain error between the
+    levels makes.  Their members agree to within ±4 %, yet their k1 are off by +29 % and
+    −25 % (traded against each other): shown as poorly identified, not as known.  The base,
+    whose rotation is far above that, keeps its k1 identified and within its interval."""
+    from pier_monitor.bench_heldout import heldout_case
+    from pier_monitor.core.identify.damage import IDENTIFIABILITY_LIMITS
+    from pier_monitor.core.identify.field import FieldSettings, rotation_gain_ratio
+
+    window, truth, _, _, _ = heldout_case("table1", "accel", 636)
+    run = identify(window, IdentifySettings(seed=636))
+    ratio = rotation_gain_ratio(window, run.reproduced.theta, run.reproduced.x)
+    limit = FieldSettings().k1_min_gain_ratio
+    assert limit == 2.5 and ratio[0] > 50 and (ratio[3:5] < 2.0).all()
+    for i in (3, 4):
+        s = run.result.sections[i]
+        assert s.uncertainty.k1.relative_half_width() < IDENTIFIABILITY_LIMITS["k1"]
+        assert abs(s.k1 / truth.k1[i] - 1.0) > 0.2
+        assert not s.uncertainty.k1.lo <= truth.k1[i] <= s.uncertainty.k1.hi
+        assert "k1" in s.poorly_identified and s.state == "intact"
+    base = run.result.sections[0]
+    assert "k1" not in base.poorly_identified
+    assert base.uncertainty.k1.lo <= truth.k1[0] <= base.uncertainty.k1.hi

@@ -152,6 +152,7 @@ __all__ = [
     "YIELD_TEST_SHORT",
     "yield_test_evidence",
     "with_section_evidence",
+    "with_k1_unresolved",
     "ductility_factors",
     "SectionResult",
     "IdentificationResult",
@@ -1508,6 +1509,20 @@ def with_identifiability(sections: tuple[SectionResult, ...],
     ends = ends & np.concatenate([[True], ends[:-1]])
     return tuple(replace(s, poorly_identified=poorly_identified(s, bool(e)))
                  for s, e in zip(sections, ends, strict=True))
+
+
+def with_k1_unresolved(sections: tuple[SectionResult, ...], unresolved: np.ndarray
+                       ) -> tuple[SectionResult, ...]:
+    """The sections with ``k1`` poorly identified where ``unresolved`` (N,) says the method
+    cannot resolve it (states unchanged); only where there is an interval (an ensemble):
+    without one nothing is flagged."""
+    flags = np.asarray(unresolved, dtype=bool)
+    if flags.shape != (len(sections),):
+        raise InputDataError(f"unresolved k1: expected {len(sections)} sections, got shape "
+                             f"{flags.shape}")
+    return tuple(replace(s, poorly_identified=_flagged(s.poorly_identified, "k1"))
+                 if f and s.uncertainty is not None and s.uncertainty.members >= 2 else s
+                 for s, f in zip(sections, flags))
 
 
 def with_family(sections: tuple[SectionResult, ...], family: Any) -> tuple[SectionResult, ...]:

@@ -41,13 +41,15 @@ from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, IdentificationResult,
                                                build_sections, k1_change_pct, member_ductility,
                                                overall_state, with_family, with_identifiability,
-                                               with_section_evidence, yield_test_evidence)
+                                               with_k1_unresolved, with_section_evidence,
+                                               yield_test_evidence)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
 from pier_monitor.core.identify.families import (FamilyChoice,
                                                  fit_families, moment_noise_variance,
                                                  takeda_draws)
-from pier_monitor.core.identify.field import FieldFit, FieldSettings, fit_field
+from pier_monitor.core.identify.field import (FieldFit, FieldSettings, fit_field,
+                                              rotation_gain_ratio)
 from pier_monitor.core.identify.field_families import fit_field_families
 from pier_monitor.core.identify.selfcheck import ModelMisfit, model_misfit
 from pier_monitor.core.identify.uncertainty import (DF_RESOLUTION, FIELD_DF_RESOLUTION,
@@ -430,6 +432,11 @@ class MethodOutput:
         Per section, reasons from the method's own tests that make it at least suspicious
         (rule 13 of :mod:`~pier_monitor.core.identify.damage`: a yield test that fell just
         short); empty: none.  Applied to the bilinear springs only.
+    k1_unresolved : ndarray of bool, shape (N,), or None
+        Sections whose ``k1`` the method cannot resolve whatever its members' interval
+        (the field reconstruction: a rotation small beside what the sensors' gain errors
+        make, :func:`~pier_monitor.core.identify.field.rotation_gain_ratio`): shown as
+        poorly identified where there is an interval.  None: no such sections.
     """
 
     params: SpringParameters
@@ -447,6 +454,7 @@ class MethodOutput:
     family: FamilyChoice | None = None
     df_resolution: float = DF_RESOLUTION
     section_evidence: tuple[tuple[str, ...], ...] = ()
+    k1_unresolved: np.ndarray | None = None
 
 
 class Method(Protocol):
@@ -540,7 +548,9 @@ class FieldMethod:
                             df_resolution=FIELD_DF_RESOLUTION,
                             section_evidence=tuple(yield_test_evidence(
                                 fit.yielded, share, fs.yield_hint_share,
-                                fs.yield_share)))
+                                fs.yield_share)),
+                            k1_unresolved=rotation_gain_ratio(window, theta, x)
+                            < fs.k1_min_gain_ratio)
 
 
 class PinnMethod:
@@ -894,6 +904,8 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     sections = with_identifiability(
         sections, None if window.coverage is None
         else window.coverage.acceleration | window.coverage.displacement)
+    if out.k1_unresolved is not None:
+        sections = with_k1_unresolved(sections, out.k1_unresolved)
     if out.section_evidence and not rc_family:  # the bilinear springs' own tests (rule 13)
         sections = with_section_evidence(sections, out.section_evidence)
     result = IdentificationResult(
