@@ -82,6 +82,12 @@ TUNING = {
                                "sections read elastic caught, 13 of 238 elastic ones made "
                                "suspicious; sparse: 17 of 188 elastic, hence both ends "
                                "measured only)"),
+    "field_k1_min_gain_ratio": ("FieldSettings.k1_min_gain_ratio 2.5 (k1 poorly identified where "
+                                "a section's peak rotation is under 2.5 times what the levels' "
+                                "gain errors make): heldout suite, accel, both piers, tuning "
+                                "seeds 620-655 (360 sections: the 3 k1 shown as identified "
+                                "but off by more than their interval plus 5 % flagged, 51 "
+                                "more flagged in all)"),
     "c_resolution": "C_RESOLUTION 2 %: heldout suite, every layout, tuning seeds 620-627",
     "field_k1_box": ("the field fit's k1 box holds the design value as well as the start: "
                      "found on held-out seed 602 (Table 1, accel, top section -32 % on the "
