@@ -757,6 +757,10 @@ def _rc_run(store: ResultsStore, hyst: str, pier: str, layout: str, shaking: str
         "states": states, "true_df": true_df.tolist(), "df": df.tolist(),
         "reinforcement_yielded": yielded.tolist(),
         "df_err_pct_yielded": [float(e) for e, y in zip(err, yielded) if y],
+        # per yielded section: whether its DF is flagged poorly identified (shown as not
+        # identified, never read as a number)
+        "df_flagged_yielded": [bool("DF" in s.poorly_identified)
+                               for s, y in zip(result.sections, yielded) if y],
         "df_interval": interval,
         # per yielded section: whether its DF interval holds the truth (None: no interval)
         "df_in_interval_yielded": [None if iv is None else bool(iv[0] <= t <= iv[1])
@@ -779,7 +783,8 @@ def _held_of(held: list[bool | None]) -> dict[str, int]:
 
 def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
     """Per hysteresis and layout: runs, family chosen, misfit fired, DF error on the
-    yielded sections (mean, max), their DF interval coverage, sections intact at a true
+    yielded sections (mean, max; and over those whose DF is shown as identified, not
+    flagged, with their count), their DF interval coverage, sections intact at a true
     DF >= 1.5, damaged where the reinforcement stayed elastic, unreliable runs, the slowest
     event."""
     out: dict[str, Any] = {"case": "rc_summary", "groups": {}, "wall_s": 0.0, "device": "cpu"}
@@ -789,6 +794,8 @@ def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
             if not sel:
                 continue
             errs = [e for r in sel for e in r["df_err_pct_yielded"]]
+            shown = [e for r in sel if not r["unreliable"]
+                     for e, f in zip(r["df_err_pct_yielded"], r["df_flagged_yielded"]) if not f]
             out["groups"][f"{hyst}/{layout}"] = {
                 "runs": len(sel),
                 "family": {f: sum(str(r["family"]) == f for r in sel)
@@ -796,6 +803,11 @@ def summarize_rc(runs: list[dict[str, Any]]) -> dict[str, Any]:
                 "misfit_fired": sum(r["misfit_fires"] for r in sel),
                 "df_err_pct_yielded_mean": float(np.mean(errs)) if errs else None,
                 "df_err_pct_yielded_max": float(np.max(errs)) if errs else None,
+                # the same over the yielded sections of reliable runs whose DF is shown as
+                # identified (not flagged), and how many of the yielded sections those are
+                "df_err_pct_yielded_shown_mean": float(np.mean(shown)) if shown else None,
+                "df_err_pct_yielded_shown_max": float(np.max(shown)) if shown else None,
+                "df_shown_yielded": {"shown": len(shown), "yielded": len(errs)},
                 # yielded sections whose DF interval holds the truth, of those with one
                 # (reliable runs only: an unreliable result shows no state), and without one
                 "df_coverage_yielded": _held_of([c for r in sel if not r["unreliable"]
