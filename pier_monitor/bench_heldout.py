@@ -80,7 +80,7 @@ TUNING = {
                                "levels measured suspicious): heldout suite, accel and sparse, "
                                "both piers, tuning seeds 620-655 (accel: 9 of 18 yielded "
                                "sections read elastic caught, 13 of 238 elastic ones made "
-                               "suspicious; sparse: 17 of 188 elastic, hence both ends "
+                               "suspicious; sparse: 19 of 226 elastic, hence both ends "
                                "measured only)"),
     "field_k1_min_gain_ratio": ("FieldSettings.k1_min_gain_ratio 2.5 (k1 poorly identified where "
                                 "a section's peak rotation is under 2.5 times what the levels' "

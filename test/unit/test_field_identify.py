@@ -246,10 +246,18 @@ def test_a_yield_test_just_short_makes_an_elastic_reading_suspicious_and_stays()
     assert s2.evidence == (line,)
     top = result.sections[-1]
     assert top.evidence == () and top.state == "intact"
+    assert s2.yield_status == "may have yielded"
+    assert result.p_overall_state[0] == 0.0  # no intact share where a section is raised
     checked = result.with_evidence(np.zeros(4), [("hysteretic energy",)] * 4)
     assert checked.sections[1].evidence == (line, "hysteretic energy")
     assert checked.sections[1].reasons.count(line) == 1
     assert checked.sections[1].state == "suspicious"
+    # kept through a re-decision against a baseline and through the result file
+    from pier_monitor.core.identify.damage import IdentificationResult
+    rebased = result.with_baseline(result).sections[1]
+    assert rebased.state == "suspicious" and line in rebased.reasons
+    loaded = IdentificationResult.from_dict(result.to_dict()).sections[1]
+    assert loaded.evidence == (line,) and loaded.yield_status == "may have yielded"
 
 
 def test_a_rotation_small_beside_what_gain_errors_make_leaves_k1_poorly_identified():

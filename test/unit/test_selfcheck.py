@@ -459,8 +459,8 @@ def test_a_yield_test_just_short_gives_evidence_on_unyielded_springs_only():
                                 0.5, 2.0)
     assert lines[1:] == [(), (), ()]
     assert lines[0] == (f"{YIELD_TEST_SHORT}: holding section 1's spring elastic raises the "
-                        "fit's chi-square by 0.78 of what the fit leaves (yielded from 2, may "
-                        "have yielded from 0.5)",)
+                        "fit's chi-square by 0.78 of what the fit leaves (yielded from 2 with a "
+                        "significant gain, may have yielded from 0.5)",)
     assert yield_test_evidence([False, False], None, 0.5, 2.0) == [(), ()]
     with pytest.raises(InputDataError, match="expected 2 entries"):
         yield_test_evidence([False, False], [1.0], 0.5, 2.0)

@@ -96,8 +96,9 @@ applies with or without an ensemble, and only raises a state
     the base, read DF 0.04 and 0.13 against 4.14 and 2.72) had been seen before the rule
     was made, so those draws are no longer held out for it.
 13. on the field reconstruction with bilinear springs, a section reported not yielded, both
-    of whose end levels are measured, whose spring reaches its fitted yield line and whose yield test gained at least
-    ``FieldSettings.yield_hint_share`` (0.5) of the fit's remaining chi-square, short of the
+    of whose end levels are measured, whose spring reaches its fitted yield line and whose
+    yield test gained at least ``FieldSettings.yield_hint_share`` (0.5) of the fit's
+    remaining chi-square, short of the
     ``yield_share`` (2) that calls it yielded, "may have yielded" by the fit's own test
     (:func:`yield_test_evidence`, the evidence :data:`YIELD_TEST_SHORT`): at least
     suspicious, kept as the self-check's evidence is.  Rule 3 reads the members, whose yield
@@ -153,6 +154,7 @@ __all__ = [
     "yield_test_evidence",
     "with_section_evidence",
     "with_k1_unresolved",
+    "p_overall_with_section_evidence",
     "ductility_factors",
     "SectionResult",
     "IdentificationResult",
@@ -235,8 +237,9 @@ YIELD_OUT_OF_REACH = "yield out of reach"
 #: On the three-level layout (seeds 620-645, Table 1, 150 sections) one section passed 10:
 #: seed 628, section 2 at 13.6, true DF 2.77 read 0.14 (a degenerate spring too).
 MAX_YIELD_ROTATION_RATIO = 10.0
-#: Rule 13's evidence: a section reported elastic whose yield test fell short of calling it
-#: yielded by less than its hint share (:func:`yield_test_evidence`).
+#: Rule 13's evidence: a section reported elastic whose yield test's share reached
+#: ``FieldSettings.yield_hint_share``, short of what calls it yielded
+#: (:func:`yield_test_evidence`).
 YIELD_TEST_SHORT = "may have yielded by the yield test"
 
 #: A section is reported "not yielded" only while the probability that its spring yielded
@@ -427,7 +430,8 @@ def yield_test_evidence(yielded: Sequence[bool] | np.ndarray,
                              f"{share.shape}")
     return [(f"{YIELD_TEST_SHORT}: holding section {i + 1}'s spring elastic raises the "
              f"fit's chi-square by {share[i]:.2f} of what the fit leaves (yielded from "
-             f"{yield_share:g}, may have yielded from {hint_share:g})",)
+             f"{yield_share:g} with a significant gain, may have yielded from "
+             f"{hint_share:g})",)
             if not y[i] and np.isfinite(share[i]) and share[i] >= hint_share else ()
             for i in range(n)]
 
@@ -557,7 +561,7 @@ def _df_clear_of_damaged(uncertainty: SectionUncertainty | None) -> bool:
 def _p_state_with_evidence(uncertainty: SectionUncertainty | None, evidence: Sequence[str],
                            model_misfit: bool) -> SectionUncertainty | None:
     """The members' state probabilities with the self-check's evidence applied as the state
-    is: evidence moves the intact share to suspicious (rules 5-8, 10); a DF the evidence
+    is: evidence moves the intact share to suspicious (rules 5-8, 10, 13); a DF the evidence
     says is not identified (rules 8, 10), or one under a model misfit whose interval does
     not clear 1.5 (rule 9), moves the damaged share to suspicious.  The members never saw
     the self-check: a section raised to suspicious by it showed "suspicious (P 0.00)"."""
@@ -658,8 +662,9 @@ def decide_state(ductility_factor: float, yielded: bool,
         (:func:`k1_loss_reason`); it makes the section at least suspicious.  Used only with
         an uncertainty.
     evidence : sequence of str
-        Reason lines of the self-check (a large energy index, a model misfit): each makes
-        the section at least suspicious, with or without an uncertainty (rules 5-6).
+        Reason lines of the self-check (a large energy index, a model misfit) or of the
+        identification's own tests (rule 13): each makes the section at least suspicious,
+        with or without an uncertainty.
     cumulative : bool
         True when ``ductility_factor`` is the cumulative DF on an earlier event's (virgin)
         yield rotation (:meth:`IdentificationResult.with_cumulative_ductility`).  The
@@ -762,9 +767,9 @@ class SectionResult:
 
     ``energy_index`` is the hysteretic energy of the section's moment–rotation loop over the
     elastic energy at its peak (dimensionless, :func:`~pier_monitor.core.identify.selfcheck.
-    energy_indices`; None when not computed); ``evidence`` the self-check's reasons that make
-    the section at least suspicious (rules 5-6 of the module), kept when the state is decided
-    again against another baseline.
+    energy_indices`; None when not computed); ``evidence`` the reasons that make the section
+    at least suspicious (the identification's own, rule 13, then the self-check's, rules 5-12
+    of the module), kept when the state is decided again against another baseline.
 
     ``poorly_identified`` names the quantities (``k1``, ``k2``, ``fy``, ``c``, ``DF``) whose
     90 % interval is wider than :data:`IDENTIFIABILITY_LIMITS` allows
@@ -832,11 +837,14 @@ class SectionResult:
         """``"yielded"``, ``"not yielded"`` or ``"may have yielded"``.
 
         A section reported as not yielded "may have yielded" when its ensemble gives a
-        probability of yielding of at least :data:`P_YIELD_LOW`.
+        probability of yielding of at least :data:`P_YIELD_LOW` (rule 3), or its own yield
+        test fell just short (rule 13, evidence :data:`YIELD_TEST_SHORT`).
         """
         if self.yielded:
             return "yielded"
-        return "may have yielded" if _may_have_yielded(False, self.uncertainty) else "not yielded"
+        short = any(str(e).startswith(YIELD_TEST_SHORT) for e in self.evidence)
+        return ("may have yielded" if short or _may_have_yielded(False, self.uncertainty)
+                else "not yielded")
 
     def k1_spread_of(self, stiffness: float) -> Spread | None:
         """The 90 % spread of ``stiffness`` (N·m/rad) where this section's uncertainty is
@@ -1236,7 +1244,7 @@ class IdentificationResult:
         for s, e, ev, lim, sp, far in zip(self.sections, energy, evidence, limits, split, reach):
             # the identification's own evidence (rule 13), already applied, stays beside
             # the self-check's
-            own = s.evidence
+            own = tuple(e for e in s.evidence if str(e).startswith(YIELD_TEST_SHORT))
             ev = tuple(r for r in (str(r) for r in ev) if r not in own)
             if sp and is_diagnosis(s.damage_state):  # rule 11
                 ev = (*ev, *sp)
@@ -1555,6 +1563,16 @@ def _p_overall_with_evidence(p: tuple[float, float, float] | None,
     return _shares_to_suspicious(
         p, intact=any(s.evidence for s in diagnosed),
         damaged=capped and overall != DamageState.DAMAGED.name.lower())
+
+
+def p_overall_with_section_evidence(p: tuple[float, float, float] | None,
+                                    sections: tuple[SectionResult, ...]
+                                    ) -> tuple[float, float, float] | None:
+    """The overall states' probabilities ``p`` (intact, suspicious, damaged) with the
+    sections' own evidence (rule 13, :func:`with_section_evidence`) applied as their states
+    apply it: the intact share goes to suspicious where a diagnosed section has evidence.
+    Applying it again (:meth:`IdentificationResult.with_evidence`) changes nothing."""
+    return _p_overall_with_evidence(p, tuple(sections), overall_state(tuple(sections)), False)
 
 
 def overall_state(sections: tuple[SectionResult, ...]) -> str:

@@ -41,6 +41,7 @@ from pier_monitor.core.fileio import finite_or_none
 from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, IdentificationResult,
                                                build_sections, k1_change_pct, member_ductility,
                                                overall_state, with_family, with_identifiability,
+                                               p_overall_with_section_evidence,
                                                with_k1_unresolved, with_section_evidence,
                                                yield_test_evidence)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
@@ -534,7 +535,7 @@ class FieldMethod:
         fs = settings.field_settings
         # rule 13 where both ends of a section are measured: between an unmeasured level and
         # its neighbours the fit's yield test weighs how the rotation is split, which the
-        # accelerations hardly tell (three-level layout, tuning draws 620-655: 17 of 188
+        # accelerations hardly tell (three-level layout, tuning draws 620-655: 19 of 226
         # elastic sections reached the hint share, down to a true DF of 0.19, and 2 of 7
         # yielded ones read elastic, none past 1.1)
         measured = window.coverage.acceleration | window.coverage.displacement
@@ -908,6 +909,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         sections = with_k1_unresolved(sections, out.k1_unresolved)
     if out.section_evidence and not rc_family:  # the bilinear springs' own tests (rule 13)
         sections = with_section_evidence(sections, out.section_evidence)
+        p_overall = p_overall_with_section_evidence(p_overall, sections)
     result = IdentificationResult(
         pier_id=window.pier_id, event_id=window.event_id, sections=sections,
         overall_state=overall_state(sections), window_start_s=float(window.t[0]),
