@@ -456,12 +456,23 @@ def with_section_evidence(sections: Sequence[SectionResult],
     for s, ev in zip(sections, evidence):
         ev = tuple(str(r) for r in ev)
         if ev and is_diagnosis(s.damage_state):
-            state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
-            s = replace(s, state=state.name.lower(), reasons=reasons,
-                        evidence=(*s.evidence, *ev),
-                        uncertainty=_p_state_with_evidence(s.uncertainty, ev, False))
+            s = _raised_by(replace(s, evidence=(*s.evidence, *ev)), ev, False)
         out.append(s)
     return tuple(out)
+
+
+def _raised_by(section: SectionResult, evidence: tuple[str, ...], misfit: bool
+               ) -> SectionResult:
+    """``section`` with ``evidence`` applied to its state, reasons and state probabilities
+    (at least suspicious; under a model misfit, rule 9's cap on damaged), where it is a
+    diagnosis and there is evidence or a misfit; unchanged otherwise."""
+    if not (is_diagnosis(section.damage_state) and (evidence or misfit)):
+        return section
+    state, reasons = _with_evidence(section.damage_state, section.reasons, evidence)
+    if misfit:  # rule 9
+        state, reasons = _misfit_caps_damaged(state, reasons, section.uncertainty)
+    return replace(section, state=state.name.lower(), reasons=reasons,
+                   uncertainty=_p_state_with_evidence(section.uncertainty, evidence, misfit))
 
 
 def yield_out_of_reach_evidence(ductility: Sequence[float] | np.ndarray,
@@ -1259,13 +1270,7 @@ class IdentificationResult:
                 ev = (*ev, *(f"{FIT_AT_LIMIT}: {r}: its DF is not identified" for _, r in lim))
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified,
                                                           *(q for q, _ in lim), "DF"))
-            s = replace(s, energy_index=float(e), evidence=(*own, *ev))
-            if is_diagnosis(s.damage_state) and (ev or misfit):
-                state, reasons = _with_evidence(s.damage_state, s.reasons, ev)
-                if misfit:  # rule 9
-                    state, reasons = _misfit_caps_damaged(state, reasons, s.uncertainty)
-                s = replace(s, state=state.name.lower(), reasons=reasons,
-                            uncertainty=_p_state_with_evidence(s.uncertainty, ev, misfit))
+            s = _raised_by(replace(s, energy_index=float(e), evidence=(*own, *ev)), ev, misfit)
             sections.append(s)
         sections = tuple(sections)
         overall = overall_state(sections) if self.success else self.overall_state

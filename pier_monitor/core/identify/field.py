@@ -249,7 +249,7 @@ class _FieldProblem:
         self.full = bool(cov.acceleration.all())
         gain_sd = settings.gain_sd
         if gain_sd is None:
-            gain_sd = window.noise.gain_rel if window.noise.gain_rel > 0 else 0.01
+            gain_sd = _gain_rel(window)
         self.gain_sd = float(gain_sd)
         # absolute accelerations of every mass; levels without a sensor interpolated in height
         z = g.level_heights_m
@@ -351,6 +351,11 @@ class _FieldProblem:
         self.prior_mean = mean
 
 
+def _gain_rel(window: MeasuredWindow) -> float:
+    """The accelerometers' relative gain error the window's noise model states, else 1 %."""
+    return window.noise.gain_rel if window.noise.gain_rel > 0 else 0.01
+
+
 def rotation_gain_ratio(window: MeasuredWindow, theta: np.ndarray, x: np.ndarray
                         ) -> np.ndarray:
     """Per section, its peak rotation over the rotation that the levels' gain errors make,
@@ -359,8 +364,7 @@ def rotation_gain_ratio(window: MeasuredWindow, theta: np.ndarray, x: np.ndarray
     (T, N) the reconstructed rotations (rad) and ``x`` (T, N) the displacements relative to
     the foundation (m).  Infinite where no gain error reaches the section."""
     b = angle_matrix(window.geometry.section_heights_m)
-    gain = window.noise.gain_rel if window.noise.gain_rel > 0 else 0.01
-    from_gains = np.abs(b) @ (gain * np.abs(x).max(axis=0))
+    from_gains = np.abs(b) @ (_gain_rel(window) * np.abs(x).max(axis=0))
     peak = np.abs(theta).max(axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(from_gains > 0, peak / np.where(from_gains > 0, from_gains, 1.0),
@@ -794,8 +798,7 @@ def _perturbed_members(window: MeasuredWindow, settings: FieldSettings, pb: _Fie
     on_lo, on_hi = np.zeros((members, n), dtype=bool), np.zeros((members, n), dtype=bool)
     k1_lo, k1_hi = lo[0:_COLUMNS * n:_COLUMNS], hi[0:_COLUMNS * n:_COLUMNS]
     finite_sd = np.where(np.isfinite(pb.prior_sd), pb.prior_sd, 0.0)
-    measured = window.coverage.acceleration | window.coverage.displacement
-    ends_measured = measured & np.r_[True, measured[:-1]]  # the foundation is measured
+    ends_measured = window.coverage.section_ends_measured
     for m, w in enumerate(member_windows(window, members, seed=seed)):
         if m == 0:
             pm, z = pb, sol.x

@@ -538,9 +538,7 @@ class FieldMethod:
         # accelerations hardly tell (three-level layout, tuning draws 620-655: 19 of 226
         # elastic sections reached the hint share, down to a true DF of 0.19, and 2 of 7
         # yielded ones read elastic, none past 1.1)
-        measured = window.coverage.acceleration | window.coverage.displacement
-        ends_measured = measured & np.r_[True, measured[:-1]]  # the foundation is measured
-        share = (np.where(ends_measured, fit.yield_gain_share, np.nan)
+        share = (np.where(window.coverage.section_ends_measured, fit.yield_gain_share, np.nan)
                  if fit.yield_gain_share.size else fit.yield_gain_share)
         return MethodOutput(params=fit.params, yielded=fit.yielded, reproduced=reproduced,
                             initial=fit.stages[stage_names[0]], stages=dict(fit.stages),

@@ -178,6 +178,13 @@ class Coverage:
         return self.acceleration | self.displacement
 
     @property
+    def section_ends_measured(self) -> np.ndarray:
+        """Sections both of whose end levels have a motion sensor (the foundation always
+        counts as measured), (N,) bool, section ``i`` between levels ``i`` and ``i + 1``."""
+        motion = self.motion
+        return motion & np.r_[True, motion[:-1]]
+
+    @property
     def layout(self) -> str:
         """``"full"``, ``"accel"`` (accelerometers everywhere, no displacement sensor),
         ``"sparse"`` (some levels without sensors), or ``"mixed"``; ``"+gnss"``-style
