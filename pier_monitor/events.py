@@ -130,6 +130,9 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
        result of the same pier; none: the event has no ``k1`` change, only its difference
        from the design values).
     3. The method chosen identifies it (:func:`pier_monitor.core.identify.methods.identify`).
+       With a baseline, the window carries the pier's rotation history before it
+       (:meth:`ResultsStore.rotation_peaks_before`): the modified-Takeda springs start
+       from the peaks the earlier events reached, not virgin.
     4. The result checks itself
        (:func:`~pier_monitor.core.identify.checks.check_identification`): any reason makes
        it *unreliable* — every state ``unreliable``, never intact, suspicious or damaged.
@@ -192,8 +195,10 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     window_file = store.start_event(window)
     out_dir = store.event_dir(window.event_id)
     baseline = store.baseline_for(window)
+    prior = None if baseline is None else store.rotation_peaks_before(window)
     try:
-        run = identify(window, settings, callback=progress,
+        run = identify(window if prior is None else replace(window, prior_rotation_peaks=prior),
+                       settings, callback=progress,
                        baseline_k1=None if baseline is None else baseline.params.k1)
     except TrainingStopped:
         raise

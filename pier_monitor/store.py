@@ -249,6 +249,36 @@ class ResultsStore:
             return None
         return np.nanmax(np.array(peaks, dtype=float), axis=0)
 
+    def rotation_peaks_before(self, window: MeasuredWindow) -> np.ndarray | None:
+        """The pier's rotation history before ``window``, as its springs carry it into the
+        window: per section the largest positive (row 0) and negative (row 1) spring
+        rotation reached, rad, shape (2, N), in ``window``'s frame
+        (:attr:`~pier_monitor.core.ingest.window.MeasuredWindow.prior_rotation_peaks`).
+
+        The ``rotation_peaks_after_rad`` of the latest reliable result of ``window``'s pier
+        whose window started before it and whose sections are those of ``window`` (the
+        rule of :meth:`peak_rotations_before`): each event's envelope carries the one it
+        started from, less the residual rotation it left
+        (:func:`~pier_monitor.core.identify.damage.rotation_peaks_after`).  None where there
+        is no such result or it does not hold the envelope of every section.
+        """
+        z = np.asarray(window.geometry.level_heights_m, dtype=float)
+        latest = None
+        for r in self.results(window.pier_id):  # oldest window first
+            if not (self.is_baseline(r) and r.window_start_ns < window.start_time_ns):
+                continue
+            tops = np.array([s.z_top_m for s in r.sections], dtype=float)
+            if tops.shape == z[1:].shape and np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
+                latest = r
+        if latest is None or any(s.rotation_peaks_after_rad is None for s in latest.sections):
+            return None
+        env = np.array([s.rotation_peaks_after_rad for s in latest.sections], dtype=float).T
+        if not (np.all(np.isfinite(env)) and np.all(env[0] >= 0) and np.all(env[1] <= 0)):
+            log.warning("%s: its rotation peaks %s are not (θ+ >= 0, θ- <= 0): no history "
+                        "before %s", self._result_name(latest), env.tolist(), window.event_id)
+            return None
+        return env
+
     def is_baseline(self, result: IdentificationResult) -> bool:
         """Whether ``result`` may be a later event's baseline: a reliable result (a
         successful identification that passed its self-check) whose ``k1`` are all finite

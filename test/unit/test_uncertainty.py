@@ -20,7 +20,8 @@ from ensemble_helpers import (MEMBERS, ensemble_result, normal_members, yielded_
 from pier_monitor.core.errors import InputDataError
 from pier_monitor.core.identify.damage import (BILINEAR_MISFIT, P_YIELD_LOW, DamageState,
                                                IdentificationResult, build_sections,
-                                               classify_ductility, decide_state)
+                                               VIRGIN_START_STIFFNESS, classify_ductility,
+                                               decide_state)
 from pier_monitor.core.identify.uncertainty import (MemberResponses, Spread, k1_change_interval,
                                                     overall_state_probabilities,
                                                     summarize_members)
@@ -249,10 +250,13 @@ def test_a_k1_gain_beyond_the_scatter_is_not_damage() -> None:
     assert after.with_baseline(before).sections[0].state == "intact"
 
 
-def _takeda(result: IdentificationResult, bilinear_k1: float) -> IdentificationResult:
+def _takeda(result: IdentificationResult, bilinear_k1: float,
+            history_known: bool = True) -> IdentificationResult:
     """``result`` as a Takeda event: its members' ``k1`` are the draws of the stiffness
-    after the event (``k_small_after``, their mean), its ``k1`` the bilinear fit's."""
-    sections = tuple(replace(s, family="takeda", k_small_after=s.k1, k1=bilinear_k1)
+    after the event (``k_small_after``, their mean), its ``k1`` the bilinear fit's; its
+    springs started from the pier's measured history (``history_known``) or virgin."""
+    sections = tuple(replace(s, family="takeda", k_small_after=s.k1, k1=bilinear_k1,
+                             history_known=history_known)
                      for s in result.sections)
     return replace(result, sections=sections, family={"family": "takeda"})
 
@@ -262,8 +266,8 @@ def test_a_takeda_sections_interval_is_that_of_its_stiffness_after_the_event() -
     stiffness a change against an earlier event compares: that change gets its interval
     and the cracking rule; a change of the bilinear ``k1`` against design values gets none
     (no interval of it was drawn)."""
-    before, after = _k1_events(0.13, 0.01)
-    before, after = _takeda(before, 0.6 * K1), _takeda(after, 0.5 * K1)
+    before0, after0 = _k1_events(0.13, 0.01)
+    before, after = _takeda(before0, 0.6 * K1), _takeda(after0, 0.5 * K1)
     s = after.with_baseline(before).sections[0]
     ks_before, ks_after = before.sections[0].k_small_after, after.sections[0].k_small_after
     assert s.k1_change_pct == pytest.approx(100 * (ks_after / ks_before - 1), abs=1e-9)
@@ -273,6 +277,14 @@ def test_a_takeda_sections_interval_is_that_of_its_stiffness_after_the_event() -
         pytest.approx((want.lo_pct, want.hi_pct, want.scatter_pct), rel=1e-12)
     assert -15.5 < s.k1_change_lo_pct < s.k1_change_hi_pct < -s.k1_change_scatter_pct < 0
     assert s.state == "suspicious" and s.reasons[0].endswith("%): cracking")
+    # a spring that started virgin after the earlier event: the truth may lie higher
+    v = _takeda(after0, 0.5 * K1, history_known=False).with_baseline(before).sections[0]
+    wide = k1_change_interval(ks_after, after.sections[0].uncertainty.k1, ks_before,
+                              before.sections[0].uncertainty.k1,
+                              stiffer_by=VIRGIN_START_STIFFNESS)
+    assert (v.k1_change_lo_pct, v.k1_change_hi_pct) == pytest.approx((want.lo_pct,
+                                                                      wide.hi_pct))
+    assert v.k1_change_hi_pct > s.k1_change_hi_pct
     d = after.with_k1_baseline(np.array([K1]), "design values").sections[0]
     assert d.k1_change_pct == pytest.approx(-50.0)
     assert (d.k1_change_lo_pct, d.k1_change_hi_pct, d.k1_change_scatter_pct) == (None,) * 3

@@ -87,8 +87,10 @@ shakings, full layout, 8 events, 40 sections; ``identify`` with its defaults):
   interval holding the true change (E-Defense: +1.4 % [−9.3, +22.6], +2.5 % [−58, +47],
   +18.4 % [−417, +357] against −3.7 to −3.8 %); the base's loss is beyond its scatter
   (cracking) but its interval misses the truth (−37.8 % [−41.1, −34.8] against −32.3 %;
-  Table 1: −47.7 % [−50.7, −45.1] against −40.2 %): the second window's fit starts from an
-  undamaged spring, a model error that no draw shows;
+  Table 1: −47.7 % [−50.7, −45.1] against −40.2 %): the second window's fit started from
+  an undamaged spring, a model error that no draw shows.  It now starts from the peaks the
+  first event reached, where they were measured (``prior_peaks``,
+  :meth:`~pier_monitor.store.ResultsStore.rotation_peaks_before`; README "Two shakings");
 * on a synthetic Takeda section with white moment noise (the unit tests) the intervals of
   the DF, the stiffness, ``My`` and ``c`` held the truth in 18, 14, 17 and 18 of 20 windows;
 * time: 0.2-0.5 CPU s per event (the perturbed windows and 200 draws), against 9-16 s for
@@ -135,7 +137,7 @@ from pier_monitor.core.model.springs import (
     Skeleton,
     TakedaParameters,
     _bilinear_kernel,
-    _takeda_kernel,
+    _takeda_kernel_from,
     bilinear_skeleton,
     idealised_yield,
     takeda_skeleton,
@@ -244,6 +246,10 @@ class SectionFamilies:
         yield rotation is an extrapolation beyond the data and the DF is at most 1.
     bic_unyielded : dict of str to float
         Per family: the BIC of that family held below yield.
+    prior_peaks : (float, float)
+        The rotation peaks ``(θ+ >= 0, θ− <= 0)`` the Takeda fit started from, rad, in the
+        window's frame (an earlier event's, its residual rotation removed;
+        :func:`fit_section_families`); ``(0, 0)``: a virgin spring.
     yield_refused : bool
         The Takeda fit passed the yield test, but its yield rotation is below
         :data:`MIN_YIELD_ROTATION_SHARE` of the design's (:func:`fit_families`): not yielded,
@@ -266,6 +272,12 @@ class SectionFamilies:
     bic_unyielded: dict[str, float]
     yield_refused: bool = False
     yield_gain_share: float | None = None
+    prior_peaks: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def prior_peak(self) -> float:
+        """The largest ``|θ|`` before the window, rad (0 for a virgin section)."""
+        return max(self.prior_peaks[0], -self.prior_peaks[1])
 
     @property
     def best(self) -> str:
@@ -344,6 +356,10 @@ class FamilyChoice:
         design is not known.  A ratio beyond
         :data:`~pier_monitor.core.identify.damage.MAX_YIELD_ROTATION_RATIO` is a spring whose
         yield the fit put out of reach (rule 12 of :mod:`~pier_monitor.core.identify.damage`).
+    history_known : bool
+        The pier's measured history was given (the sections' ``prior_peaks`` say which
+        section's Takeda started from it); False: every spring started virgin, whatever
+        came before.
     """
 
     family: str
@@ -363,13 +379,15 @@ class FamilyChoice:
     draws: EnsembleDraws | None = field(default=None, repr=False)
     df_resolution: float = TAKEDA_DF_RESOLUTION
     yield_rotation_vs_design: np.ndarray | None = field(default=None, repr=False)
+    history_known: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary (per-family parameters and scores per section)."""
         out: dict[str, Any] = {"family": self.family, "reason": self.reason,
                                "bic_total": dict(self.bic_total),
                                "df_resolution": (None if self.family == "bilinear"
-                                                 else self.df_resolution)}
+                                                 else self.df_resolution),
+                               "history_known": bool(self.history_known)}
         for name in ("peak_rotation", "idealised_yield_rotation", "ductility_factor", "k1",
                      "initial_stiffness", "secant_yield_stiffness", "secant_peak_stiffness",
                      "small_amplitude_stiffness", "stiffness_degradation"):
@@ -380,6 +398,7 @@ class FamilyChoice:
             else [float(v) for v in self.yield_rotation_vs_design])
         out["sections"] = [
             {"n_eff": s.n_eff, "yielded": dict(s.yielded), "noise_var": s.noise_var,
+             "prior_peaks": list(s.prior_peaks),
              "best": s.best, "bic_unyielded": dict(s.bic_unyielded),
              "yield_gain_share": s.yield_gain_share,
              "fits": {k: {"params": f.params, "c": f.c, "rss": f.rss, "bic": f.bic,
@@ -437,7 +456,8 @@ class _Problem:
     """Moment residual of one section for a family, with ``c`` projected out."""
 
     def __init__(self, theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
-                 k_ref: float, f_ref: float) -> None:
+                 k_ref: float, f_ref: float, prior_peaks: tuple[float, float] = (0.0, 0.0)
+                 ) -> None:
         self.theta = np.ascontiguousarray(theta, dtype=float)
         self.thd = np.ascontiguousarray(theta_dot, dtype=float)
         self.g = np.ascontiguousarray(g, dtype=float)
@@ -445,6 +465,8 @@ class _Problem:
         self.k_ref, self.f_ref = k_ref, f_ref
         self.scale = max(float(np.std(self.g)), 1e-300)
         self.buf = np.empty_like(self.theta)
+        # the Takeda's peaks before the window (rad, its frame): an earlier event's
+        self.prior_pos, self.prior_neg = float(prior_peaks[0]), float(prior_peaks[1])
 
     # bilinear: x = [log(k1/k_ref), k2/k1, log(fy/f_ref)]
     def bil_params(self, x: np.ndarray) -> tuple[float, float, float]:
@@ -468,7 +490,8 @@ class _Problem:
         return np.array([k0, mc, my, ty, kp, TAKEDA_ALPHA, x[5], x[6]])
 
     def tak_moment(self, x: np.ndarray) -> np.ndarray:
-        _takeda_kernel(self.tak_array(x), self.theta, self.buf)
+        _takeda_kernel_from(self.tak_array(x), self.theta, self.buf, self.prior_pos,
+                            self.prior_neg)
         return self.buf
 
     # Takeda held below yield: x[0] = log(θy / θp) >= 0 instead of log(k_y / k_ref)
@@ -534,7 +557,8 @@ def takeda_yielded(margin: float, bilinear_yielded: bool) -> bool:
 
 
 def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
-                         noise_var: float, bilinear_fit: SpringFit) -> SectionFamilies:
+                         noise_var: float, bilinear_fit: SpringFit,
+                         prior_peaks: tuple[float, float] = (0.0, 0.0)) -> SectionFamilies:
     """Fit the bilinear and the Takeda family to one section.
 
     Parameters
@@ -548,6 +572,18 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
         Moment noise variance of the noise model, (N·m)² (the BIC's floor); 0 if unknown.
     bilinear_fit : SpringFit
         The section's bilinear equation-error fit (the starts).
+    prior_peaks : (float, float)
+        The section's rotation peaks ``(θ+ >= 0, θ− <= 0)`` before the window, rad, in its
+        frame (an earlier event's, its residual rotation removed).  The Takeda is fitted
+        both from them (:func:`~pier_monitor.core.model.springs.takeda_moment`) and from a
+        virgin spring, and the fit that leaves the smaller residual is kept (the same
+        parameters; the history is measured, not fitted): the returned ``prior_peaks`` say
+        which, and its small-amplitude stiffness after the event is on the larger of them
+        and the window's peak.  ``(0, 0)``: a virgin section.  On the two-shaking tuning
+        sequences the history fitted better at the bases that the first event had taken
+        past yield (E-Defense seed 620: residual 0.011 of the bilinear's against 0.046),
+        worse where the second event stayed within the first's peaks (seed 614: 0.215
+        against 0.059).
 
     Returns
     -------
@@ -564,6 +600,10 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
             raise InputDataError(f"{name}: non-finite value at sample {i}")
     if not (np.isfinite(noise_var) and noise_var >= 0):
         raise InputDataError(f"noise_var: expected a non-negative variance, got {noise_var}")
+    prior = (float(prior_peaks[0]), float(prior_peaks[1]))
+    if not (np.isfinite(prior[0]) and np.isfinite(prior[1]) and prior[0] >= 0 >= prior[1]):
+        raise InputDataError(f"prior_peaks: expected (θ+ >= 0, θ- <= 0) in rad, got "
+                             f"{prior_peaks!r}")
     k1b, k2b, fyb = bilinear_fit.k1, bilinear_fit.k2, bilinear_fit.fy
     if not (k1b > 0 and fyb > 0 and 0 <= k2b < k1b):
         raise InputDataError(f"bilinear_fit: expected k1 > 0, 0 <= k2 < k1, fy > 0, got "
@@ -572,7 +612,7 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
     if peak == 0:
         raise InputDataError("theta: the section's angle is zero over the whole window; no "
                              "spring family can be fitted")
-    prob = _Problem(theta, theta_dot, g, k1b, fyb)
+    prob = _Problem(theta, theta_dot, g, k1b, fyb, prior)
 
     # bilinear, refitted to the history residual from the equation-error fit
     r2 = min(k2b / k1b, 0.49)
@@ -592,7 +632,16 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
                   for sf in (0.7, 1.0, 1.3)
                   for rc in (0.15, 0.4)
                   for px, py in ((1.0, 1.0), (0.6, 0.4))]
-    xt = _solve(prob, prob.tak_moment, tak_starts, _TAK_LO, _TAK_HI, 4)
+    # from the history where there is one, and from a virgin spring: the better fit is kept
+    # (the same parameters, the history measured), its start in ``prior_peaks``
+    xt = None
+    cost_t = np.inf
+    for start in ([prior, (0.0, 0.0)] if prior != (0.0, 0.0) else [prior]):
+        cand = _Problem(theta, theta_dot, g, k1b, fyb, start)
+        x_c = _solve(cand, cand.tak_moment, tak_starts, _TAK_LO, _TAK_HI, 4)
+        c_c = cand.cost(cand.tak_moment, x_c)
+        if xt is None or c_c < cost_t:
+            xt, cost_t, prob, prior = x_c, c_c, cand, start
 
     # The same Takeda held below its yield point over the window (θy >= θp): cracking and
     # degradation only.  The section yielded in the Takeda family only if the full fit is
@@ -646,7 +695,7 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
     yielded = {fam: bool(yielded[fam] and peak > fits[fam].skeleton.theta_first_yield)
                for fam in fits}
     return SectionFamilies(fits, t_len, float(n_eff), float(noise_var), peak, yielded,
-                           bic_unyielded)
+                           bic_unyielded, prior_peaks=prior)
 
 
 def _takeda_of(fit: FamilyFit) -> TakedaParameters:
@@ -657,7 +706,8 @@ def _takeda_of(fit: FamilyFit) -> TakedaParameters:
 
 def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_var: np.ndarray,
                  bilinear_fits: tuple[SpringFit, ...],
-                 design_yield_rotation: np.ndarray | None = None) -> FamilyChoice:
+                 design_yield_rotation: np.ndarray | None = None,
+                 prior_peaks: np.ndarray | None = None) -> FamilyChoice:
     """Fit every spring family to every section and choose one family for the event.
 
     Parameters
@@ -674,6 +724,10 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
     design_yield_rotation : ndarray, shape (N,), optional
         The design's ``fy/k1`` per section, rad: a Takeda section yielded only with a yield
         rotation at least :data:`MIN_YIELD_ROTATION_SHARE` of it (``yield_refused``).
+    prior_peaks : ndarray, shape (2, N), optional
+        Per section the rotation peaks before the window, rad, in its frame: row 0 the
+        positive (>= 0), row 1 the negative (<= 0) (:func:`fit_section_families`); None: a
+        virgin pier.
 
     Returns
     -------
@@ -691,8 +745,12 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
         raise InputDataError(f"noise_var and bilinear_fits: expected {n} sections, got "
                              f"{nv.shape} and {len(bilinear_fits)}")
     td, gg = np.asarray(theta_dot, dtype=float), np.asarray(g, dtype=float)
+    prior = np.zeros((2, n)) if prior_peaks is None else np.asarray(prior_peaks, dtype=float)
+    if prior.shape != (2, n):
+        raise InputDataError(f"prior_peaks: expected shape (2, {n}), got {prior.shape}")
     sections = tuple(fit_section_families(th[:, i], td[:, i], gg[:, i], float(nv[i]),
-                                          bilinear_fits[i]) for i in range(n))
+                                          bilinear_fits[i], (prior[0, i], prior[1, i]))
+                     for i in range(n))
     if design_yield_rotation is not None:
         ty_design = np.asarray(design_yield_rotation, dtype=float)
         if ty_design.shape != (n,):
@@ -732,7 +790,7 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
         if family == "takeda":
             tp = _takeda_of(fit)
             init[j], sec_y[j] = tp.k0, tp.k_y
-            small[j] = takeda_unloading_stiffness(tp, s.peak_rotation)
+            small[j] = takeda_unloading_stiffness(tp, max(s.peak_rotation, s.prior_peak))
         else:
             init[j] = sec_y[j] = small[j] = fit.params["k1"]
     return FamilyChoice(family=family, sections=sections, bic_total=totals, reason=reason,
@@ -743,7 +801,8 @@ def fit_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray, noise_
                         yield_rotation_vs_design=(
                             None if design_yield_rotation is None or family == "bilinear"
                             else np.array([s.fits["takeda"].params["theta_y"] for s in sections])
-                            / ty_design))
+                            / ty_design),
+                        history_known=prior_peaks is not None)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -781,7 +840,7 @@ def _section_draws(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
     ``[k_small_after, kp, My, c]``, ``ductility`` (M,), ``yielded`` (M,); draw 0 is the
     fit.  ``perturbed``: the section's ``(θ, θ̇, g)`` (T,) of each perturbed window."""
     fit = sec.fits["takeda"]
-    prob = _Problem(theta, theta_dot, g, fit.params["k_y"], fit.params["my"])
+    prob = _Problem(theta, theta_dot, g, fit.params["k_y"], fit.params["my"], sec.prior_peaks)
     x_hat = _takeda_x(prob, fit)
     lo = np.concatenate(([-np.inf], _TAK_LO[1:2], [-np.inf], _TAK_LO[3:]))
     hi = np.concatenate(([np.inf], _TAK_HI[1:2], [np.inf], _TAK_HI[3:]))
@@ -815,7 +874,7 @@ def _section_draws(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
     peaks = np.full(n_draws, sec.peak_rotation)
     gain = (v / np.maximum(w, 1e-300)) @ v.T / (var * inflation)
     for k, (th_k, thd_k, g_k) in enumerate(perturbed):
-        sub = _Problem(th_k, thd_k, g_k, prob.k_ref, prob.f_ref)
+        sub = _Problem(th_k, thd_k, g_k, prob.k_ref, prob.f_ref, sec.prior_peaks)
         r_k = sub.g - sub.tak_moment(x_hat) - fit.c * sub.thd
         step = gain @ (jac.T @ ((r_k - resid) / prob.scale))
         z[1 + k::len(perturbed)] += step
@@ -832,14 +891,15 @@ def _section_draws(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray,
     df = np.full(n_draws, np.nan)
     yielded = np.zeros(n_draws, dtype=bool)
     for j in range(n_draws):
-        member = takeda_member(prob.tak_array(xs[j]), peaks[j], cs[j], test)
+        member = takeda_member(prob.tak_array(xs[j]), peaks[j], cs[j], test,
+                               prior_peak=sec.prior_peak)
         if member is not None:  # else a draw the spring does not admit: dropped
             params[j], df[j], yielded[j] = member
     return params, df, yielded
 
 
-def takeda_member(spring: np.ndarray, peak: float, c: float, yield_test: bool
-                  ) -> tuple[np.ndarray, float, bool] | None:
+def takeda_member(spring: np.ndarray, peak: float, c: float, yield_test: bool,
+                  prior_peak: float = 0.0) -> tuple[np.ndarray, float, bool] | None:
     """One draw of a Takeda section's posterior as a member: its parameters ``spring``
     (:class:`~pier_monitor.core.model.springs.TakedaParameters`' fields in order), its peak
     rotation (rad) and damping ``c`` (N·m·s/rad) pushed through its skeleton.
@@ -848,7 +908,9 @@ def takeda_member(spring: np.ndarray, peak: float, c: float, yield_test: bool
     after the event, the DF on the idealised yield rotation (the Takeda floor,
     :func:`~pier_monitor.core.model.springs.yield_peak_fraction`), yielded where the fit's
     ``yield_test`` said so and the draw passes its first yield within the window (otherwise
-    its DF is at most 1); None for parameters the spring does not admit."""
+    its DF is at most 1); None for parameters the spring does not admit.  ``prior_peak``
+    (rad): the largest ``|θ|`` before the window, on which (with ``peak``) the stiffness
+    after the event has degraded."""
     try:
         tp = TakedaParameters(*spring)
         sk = takeda_skeleton(tp)
@@ -856,7 +918,7 @@ def takeda_member(spring: np.ndarray, peak: float, c: float, yield_test: bool
     except (InputDataError, ValueError, ZeroDivisionError):
         return None
     yielded = bool(yield_test and peak > sk.theta_first_yield)
-    return (np.array([takeda_unloading_stiffness(tp, peak), tp.kp, tp.my, c]),
+    return (np.array([takeda_unloading_stiffness(tp, max(peak, prior_peak)), tp.kp, tp.my, c]),
             ratio if yielded else min(ratio, 1.0), yielded)
 
 

@@ -51,7 +51,7 @@ from pier_monitor.core.identify.field import (FieldFit, FieldSettings, _FieldPro
                                               _smooth_derivative)
 from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.model.springs import (
-    TAKEDA_ALPHA, TAKEDA_STATE_SIZE, TakedaParameters, _takeda_init,
+    TAKEDA_ALPHA, TAKEDA_STATE_SIZE, TakedaParameters, _takeda_state_from,
     _takeda_step, bilinear_skeleton, idealised_yield, takeda_skeleton,
     takeda_unloading_stiffness, yield_peak_fraction)
 
@@ -158,10 +158,12 @@ def _tak_trial(p, st, th):  # pragma: no cover - compiled
 
 
 @jit
-def _damped_takeda_kernel(p, g, dt, c, theta, f):  # pragma: no cover - compiled
+def _damped_takeda_kernel(p, g, dt, c, theta, f, peak_pos, peak_neg
+                          ):  # pragma: no cover - compiled
     k0 = p[0]
     st = np.zeros(2 * TAKEDA_STATE_SIZE)
-    st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7], st[8] = _takeda_init(p)
+    st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7], st[8] = _takeda_state_from(
+        p, peak_pos, peak_neg)
     theta[0] = 0.0
     f[0] = 0.0
     a = 2.0 * c / dt
@@ -226,17 +228,21 @@ def _damped_takeda_kernel(p, g, dt, c, theta, f):  # pragma: no cover - compiled
         f[i + 1] = m_x
 
 
-def damped_takeda(g: np.ndarray, dt: float, params: TakedaParameters, c: float
+def damped_takeda(g: np.ndarray, dt: float, params: TakedaParameters, c: float,
+                  prior_peaks: tuple[float, float] = (0.0, 0.0)
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Angle and spring-moment histories of a modified-Takeda spring and its damper under a
-    known moment ``g`` (``c θ̇ + M = g``), trapezoidal rule, from rest at the first sample.
+    known moment ``g`` (``c θ̇ + M = g``), trapezoidal rule, from rest at the first sample
+    (after the earlier peaks ``prior_peaks``, ``(θ+ >= 0, θ− <= 0)`` rad, of
+    :func:`~pier_monitor.core.model.springs.takeda_moment`; ``(0, 0)``: virgin).
 
     Returns ``theta`` (rad) and the spring moment ``M`` (N·m), shape (T,) each.
     """
     g = np.ascontiguousarray(g, dtype=float)
     theta = np.empty_like(g)
     f = np.empty_like(g)
-    _damped_takeda_kernel(params.as_array(), g, float(dt), float(c), theta, f)
+    _damped_takeda_kernel(params.as_array(), g, float(dt), float(c), theta, f,
+                          float(prior_peaks[0]), float(prior_peaks[1]))
     return theta, f
 
 
@@ -281,6 +287,10 @@ class _TakedaField:
         self.n_data = n_data + pb.t_len * pb.disp.size
         self.n_eff = max(n_data * pb.weight ** 2 + pb.t_len * pb.disp.size * pb.disp_weight ** 2,
                          2.0)
+        # the springs' peaks before the window (the pier's history), rad, (2, N)
+        self.prior = (np.zeros((2, n)) if window.prior_rotation_peaks is None
+                      else np.asarray(window.prior_rotation_peaks, dtype=float))
+        self.prior_peak = np.maximum(self.prior[0], -self.prior[1])
 
     def spring(self, q: np.ndarray, i: int) -> np.ndarray:
         """Spring ``i``'s :class:`TakedaParameters` fields (8,), SI, from its parameters."""
@@ -301,7 +311,8 @@ class _TakedaField:
         moment = np.zeros((pb.t_len, pb.n)) if moment is None else moment.copy()
         for i in range(pb.n) if springs is None else springs:
             theta[:, i], moment[:, i] = damped_takeda(g[:, i], pb.dt, self.params(q, i),
-                                                      self.damping(q, i))
+                                                      self.damping(q, i),
+                                                      (self.prior[0, i], self.prior[1, i]))
         return theta, moment
 
     def residual(self, q: np.ndarray, eps: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -650,7 +661,8 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
             peak_rotation=float(peak[i] if family == "takeda"
                                 else np.abs(fit.theta[:, i]).max()),
             yielded={"takeda": bool(yielded[i]), "bilinear": bool(fit.yielded[i])},
-            bic_unyielded={}, yield_gain_share=gain_share[i]))
+            bic_unyielded={}, yield_gain_share=gain_share[i],
+            prior_peaks=(float(tf.prior[0, i]), float(tf.prior[1, i]))))
     th_out, mo_out = (theta, moment) if family == "takeda" else (fit.theta, fit.moment)
     pk = np.array([s.peak_rotation for s in sections])
     fam_yielded = np.array([s.yielded[family] for s in sections])
@@ -665,7 +677,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         if family == "takeda":
             tp = tf.params(q, i)
             init[i], sec_y[i] = tp.k0, tp.k_y
-            small[i] = takeda_unloading_stiffness(tp, pk[i])
+            small[i] = takeda_unloading_stiffness(tp, max(pk[i], tf.prior_peak[i]))
         else:
             init[i] = sec_y[i] = small[i] = fit.params.k1[i]
     draws = None
@@ -682,7 +694,8 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                           df_resolution=(FIELD_TAKEDA_DF_RESOLUTION if pb.acc.size == n
                                          else FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS),
                           yield_rotation_vs_design=(None if family == "bilinear"
-                                                    else yield_rotation_vs_design(q)))
+                                                    else yield_rotation_vs_design(q)),
+                          history_known=window.prior_rotation_peaks is not None)
     return choice, th_out, mo_out
 
 
@@ -747,7 +760,7 @@ def _posterior_draws(tf: _TakedaField, jac: np.ndarray, z_hat: np.ndarray, chi2:
         peak = np.abs(theta).max(axis=0)
         for i in range(n):
             member = takeda_member(tf.spring(q, i), float(peak[i]), tf.damping(q, i),
-                                   bool(yielded[i]))
+                                   bool(yielded[i]), prior_peak=float(tf.prior_peak[i]))
             if member is not None:  # else a draw the spring does not admit: dropped
                 params[m, i], df[m, i], drawn_yielded[m, i] = member
     return EnsembleDraws(params=params, ductility=df, yielded=drawn_yielded)

@@ -42,7 +42,8 @@ from pier_monitor.core.identify.damage import (IDENTIFIABILITY_LIMITS, Identific
                                                build_sections, k1_change_pct, member_ductility,
                                                overall_state, with_family, with_identifiability,
                                                p_overall_with_section_evidence,
-                                               with_k1_unresolved, with_section_evidence,
+                                               rotation_peaks_after, with_k1_unresolved,
+                                               with_section_evidence,
                                                yield_test_evidence)
 from pier_monitor.core.identify.ensemble import EnsembleDraws, member_windows, phase_randomised
 from pier_monitor.core.identify.equation_error import fit_window, inertia_moments
@@ -758,12 +759,15 @@ def _family_arrays(window: MeasuredWindow) -> tuple[np.ndarray, np.ndarray, np.n
 def _choose_family(window: MeasuredWindow, fit: Any, theta: np.ndarray) -> FamilyChoice:
     """The spring family of the event by evidence
     (:func:`~pier_monitor.core.identify.families.fit_families`: the bilinear or the
-    modified Takeda, BIC against the noise model), fitted to the measured window."""
+    modified Takeda, BIC against the noise model), fitted to the measured window; the
+    Takeda starts from the pier's history where the window carries it
+    (``prior_rotation_peaks``)."""
     _, theta_dot, g = _family_arrays(window)
     noise_var = moment_noise_variance(window.geometry, window.noise, fit.params.k1,
                                       fit.params.c)
     return fit_families(theta, theta_dot, g, noise_var, fit.springs,
-                        design_yield_rotation=window.design.yield_angles)
+                        design_yield_rotation=window.design.yield_angles,
+                        prior_peaks=window.prior_rotation_peaks)
 
 
 def _takeda_draws(window: MeasuredWindow, family: FamilyChoice,
@@ -908,6 +912,13 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     if out.section_evidence and not rc_family:  # the bilinear springs' own tests (rule 13)
         sections = with_section_evidence(sections, out.section_evidence)
         p_overall = p_overall_with_section_evidence(p_overall, sections)
+    measured = window.coverage is None or window.coverage.is_full
+    if measured and np.all(np.isfinite(out.reproduced.theta)):  # the next event starts there
+        after = rotation_peaks_after(out.reproduced.theta, window.dt,
+                                     window.prior_rotation_peaks)
+        sections = tuple(replace(s, rotation_peaks_after_rad=(float(after[0, i]),
+                                                              float(after[1, i])))
+                         for i, s in enumerate(sections))
     result = IdentificationResult(
         pier_id=window.pier_id, event_id=window.event_id, sections=sections,
         overall_state=overall_state(sections), window_start_s=float(window.t[0]),

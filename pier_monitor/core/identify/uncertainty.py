@@ -423,7 +423,8 @@ class K1ChangeInterval:
 
 
 def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
-                       baseline_spread: Spread | None = None) -> K1ChangeInterval:
+                       baseline_spread: Spread | None = None,
+                       stiffer_by: float = 0.0) -> K1ChangeInterval:
     """The 90 % interval of the change of ``k1`` against a baseline.
 
     The change is ``100 (r − 1)`` with ``r = k1 / baseline_k1`` (the reported values).  Its
@@ -433,7 +434,10 @@ def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
     ``(hi − mean) / mean``) and ``b`` the baseline's, zero without a baseline spread (design
     values).  Without a baseline spread the interval is this identification's ``k1``
     interval relative to the baseline.  The scatter is ``100 r √(s² + s_b²)`` with ``s``,
-    ``s_b`` the relative standard deviations.
+    ``s_b`` the relative standard deviations.  ``stiffer_by`` (a fraction, >= 0): a known
+    one-sided error of this identification's ``k1``, the truth up to that much higher
+    (:data:`~pier_monitor.core.identify.damage.VIRGIN_START_STIFFNESS`), combined in
+    quadrature into ``r_hi`` only: ``r_hi = r (1 + √(a_hi² + b_lo² + stiffer_by²))``.
 
     Parameters
     ----------
@@ -456,6 +460,9 @@ def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
                              f"in N*m/rad, got {k1!r} and {baseline_k1!r}")
     if not spread.defined or not spread.mean > 0:
         raise InputDataError(f"k1 change interval: the spread of k1 is undefined ({spread})")
+    if not (math.isfinite(stiffer_by) and stiffer_by >= 0):
+        raise InputDataError(f"k1 change interval: stiffer_by: expected a fraction >= 0, got "
+                             f"{stiffer_by!r}")
 
     a_lo, a_hi, a_s = spread.relative_bounds()
     b_lo, b_hi, b_s = (baseline_spread.relative_bounds() if baseline_spread is not None
@@ -463,7 +470,8 @@ def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
     r = k1 / baseline_k1
     # a stiffness is not negative: the change is at least -100 %
     return K1ChangeInterval(lo_pct=100.0 * (r * max(1.0 - math.hypot(a_lo, b_hi), 0.0) - 1.0),
-                            hi_pct=100.0 * (r * (1.0 + math.hypot(a_hi, b_lo)) - 1.0),
+                            hi_pct=100.0 * (r * (1.0 + math.hypot(a_hi, b_lo, stiffer_by))
+                                            - 1.0),
                             scatter_pct=100.0 * r * math.hypot(a_s, b_s))
 
 

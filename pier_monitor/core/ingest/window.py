@@ -262,6 +262,13 @@ class MeasuredWindow:
         Absolute time of the first sample, ns since the Unix epoch (0 if not known).
     report : dict
         Notes from the ingest (exclusions, gaps, ...), JSON-serialisable.
+    prior_rotation_peaks : ndarray, shape (2, N), or None
+        The pier's history before the window, as the modified-Takeda springs start from it
+        (both routes): per section the largest positive (row 0, ``>= 0``) and negative (row
+        1, ``<= 0``) spring rotation of the earlier events, rad, in this window's frame (the
+        residual rotation they left removed).  None: a virgin pier, or a history not known.
+        Not stored with the window: the store supplies it
+        (:meth:`~pier_monitor.store.ResultsStore.rotation_peaks_before`).
     """
 
     pier_id: str
@@ -278,6 +285,7 @@ class MeasuredWindow:
     coverage: Coverage | None = None
     start_time_ns: int = 0
     report: dict[str, Any] = field(default_factory=dict)
+    prior_rotation_peaks: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = self.geometry.n_levels
@@ -313,6 +321,14 @@ class MeasuredWindow:
         object.__setattr__(self, "coverage", cov)
         object.__setattr__(self, "noise", noise)
         object.__setattr__(self, "start_time_ns", int(self.start_time_ns))
+        if self.prior_rotation_peaks is not None:
+            prior = np.array(self.prior_rotation_peaks, dtype=float)
+            if (prior.shape != (2, n) or not np.all(np.isfinite(prior))
+                    or np.any(prior[0] < 0) or np.any(prior[1] > 0)):
+                raise InputDataError(f"window prior_rotation_peaks: expected shape (2, {n}), "
+                                     f"finite, row 0 >= 0 and row 1 <= 0 (rad), got "
+                                     f"{prior.tolist()}")
+            object.__setattr__(self, "prior_rotation_peaks", _readonly(prior))
 
     @property
     def n_levels(self) -> int:

@@ -241,11 +241,32 @@ def _takeda_step(p, s, th):  # pragma: no cover - compiled
 
 
 @jit
-def _takeda_kernel(p, theta, out):  # pragma: no cover - compiled
+def _takeda_state_from(p, peak_pos, peak_neg):  # pragma: no cover - compiled
+    """The state of the spring ``p`` at rest at ``θ = 0`` (zero moment) after an earlier
+    history whose peaks on either side were ``peak_pos >= 0`` and ``peak_neg <= 0`` (rad, in
+    the frame of the history that follows: its residual rotation removed): the virgin state
+    where both lie within cracking.  Reloading then aims at those peaks on the skeleton, and
+    the unloading stiffness has degraded with the larger of them."""
     s = _takeda_init(p)
+    tpos, tneg = max(peak_pos, s[0]), min(peak_neg, s[1])
+    if tpos == s[0] and tneg == s[1]:
+        return s
+    k0, my, ty, alpha = p[0], p[2], p[3], p[5]
+    tm = max(tpos, -tneg)
+    return (tpos, tneg, 0.0, 0.0, 0.0, 0.0, 0.0, tm, min(k0, my / ty * (ty / tm) ** alpha))
+
+
+@jit
+def _takeda_kernel_from(p, theta, out, peak_pos, peak_neg):  # pragma: no cover - compiled
+    s = _takeda_state_from(p, peak_pos, peak_neg)
     for i in range(theta.shape[0]):
         s = _takeda_step(p, s, theta[i])
         out[i] = s[5]
+
+
+@jit
+def _takeda_kernel(p, theta, out):  # pragma: no cover - compiled
+    _takeda_kernel_from(p, theta, out, 0.0, 0.0)
 
 
 @jit
@@ -259,19 +280,28 @@ def _bilinear_kernel(k1, k2, fy, theta, out, th_prev, f):  # pragma: no cover - 
         out[i] = f
 
 
-def takeda_moment(theta: np.ndarray, params: TakedaParameters) -> np.ndarray:
+def takeda_moment(theta: np.ndarray, params: TakedaParameters,
+                  prior_peaks: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
     """Moment history of a modified-Takeda spring, N·m, shape (T,).
 
     Parameters
     ----------
     theta : ndarray, shape (T,)
-        Angle history, rad; the spring is virgin and at rest at ``θ = 0`` before sample 0.
+        Angle history, rad; the spring is at rest at ``θ = 0`` before sample 0.
     params : TakedaParameters
         The spring.
+    prior_peaks : (float, float)
+        The peaks ``(θ+ >= 0, θ− <= 0)`` of an earlier history, rad, in the frame of
+        ``theta`` (the residual rotation it left removed): the spring has been there, so it
+        reloads towards them and unloads on the stiffness they degraded.  ``(0, 0)``: virgin.
     """
     th = _check_theta(theta)
+    pos, neg = (float(v) for v in prior_peaks)
+    if not (np.isfinite(pos) and np.isfinite(neg) and pos >= 0 >= neg):
+        raise InputDataError(f"prior_peaks: expected (θ+ >= 0, θ- <= 0) in rad, got "
+                             f"{prior_peaks!r}")
     out = np.empty_like(th)
-    _takeda_kernel(params.as_array(), th, out)
+    _takeda_kernel_from(params.as_array(), th, out, pos, neg)
     return out
 
 
