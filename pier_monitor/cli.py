@@ -160,8 +160,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--suite", action="append", default=None,
                        help="suite to run (repeatable): solver, ingest, paper, more, fleet, "
                             "field, coverage, missed_damage, selfcheck, rc (the RC test-bed "
-                            "through the default route), latency (the live graph: end of "
-                            "shaking to the published state) (default: solver, ingest and "
+                            "through the default route), rc_sequence_drawn (two shakings "
+                            "of drawn RC piers: the stiffness change of the second), latency "
+                            "(the live graph: end of shaking to the published state), and "
+                            "the others listed in the README (default: solver, ingest and "
                             "paper)")
     bench.add_argument("--all", action="store_true",
                        help="every suite (more: noise 0.1/10 mgal, a long-duration record, El "
