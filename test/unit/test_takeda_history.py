@@ -235,6 +235,24 @@ def test_an_identification_records_the_measured_history_it_leaves(base_window):
     assert np.all(got[0] > 0.04)  # the history's larger peak carried through
 
 
+def _takeda_section(k_small: Spread, df: float, yielded: bool) -> SectionResult:
+    """A Takeda section of 200 draws: the stiffness after the event ``k_small`` (its mean
+    the section's ``k_small_after``), the DF ``df`` within ±10 %, yielded or not, started
+    virgin; its state the DF's."""
+    u = SectionUncertainty(k1=k_small, k2=Spread.undefined(), fy=Spread.undefined(),
+                           c=Spread(2e7, 1e6, 1.9e7, 2.1e7),
+                           ductility_factor=Spread(df, 0.05 * df, 0.9 * df, 1.1 * df),
+                           p_yielded=float(yielded),
+                           p_state=(0.0, 0.0, 1.0) if df >= 1.5 else (1.0, 0.0, 0.0),
+                           members=200)
+    return SectionResult(
+        index=0, z_bottom_m=0.0, z_top_m=2.0, k1=5e8, k2=5e7, fy=8e6, c=2e7,
+        yield_angle_rad=0.01, max_angle_rad=0.01 * df, ductility_factor=df,
+        state="damaged" if df >= 1.5 else "intact", yielded=yielded,
+        k2_identifiable=yielded, fy_identifiable=yielded, uncertainty=u, family="takeda",
+        k_small_after=k_small.mean)
+
+
 def test_a_change_from_a_virgin_start_reaches_higher():
     """A Takeda section's stiffness change against an earlier event, where its spring
     started virgin (the history not measured), has its interval's upper end widened by
@@ -248,15 +266,7 @@ def test_a_change_from_a_virgin_start_reaches_higher():
     assert wide.hi_pct == pytest.approx(100 * (0.7 * (1 + math.hypot(1e7 / 7e8, 0.2)) - 1))
     with pytest.raises(InputDataError, match="stiffer_by"):
         k1_change_interval(7e8, spread, 1e9, stiffer_by=-0.1)
-    u = SectionUncertainty(k1=spread, k2=Spread.undefined(), fy=Spread.undefined(),
-                           c=Spread(2e7, 1e6, 1.9e7, 2.1e7),
-                           ductility_factor=Spread(2.0, 0.1, 1.8, 2.2), p_yielded=1.0,
-                           p_state=(0.0, 0.0, 1.0), members=200)
-    sec = SectionResult(
-        index=0, z_bottom_m=0.0, z_top_m=2.0, k1=5e8, k2=5e7, fy=8e6, c=2e7,
-        yield_angle_rad=0.01, max_angle_rad=0.02, ductility_factor=2.0, state="damaged",
-        yielded=True, k2_identifiable=True, fy_identifiable=True, uncertainty=u,
-        family="takeda", k_small_after=7e8)
+    sec = _takeda_section(spread, df=2.0, yielded=True)
     virgin = sec.rebased(1e9, -30.0, "event ev1", event=True, stiffness=7e8)
     known = replace(sec, history_known=True).rebased(1e9, -30.0, "event ev1", event=True,
                                                      stiffness=7e8)
@@ -273,16 +283,8 @@ def test_an_rc_sections_stiffness_gain_beyond_its_interval_is_not_identified():
     (the change's interval wholly above zero) has its ``k1`` flagged poorly identified: a
     cracked section does not stiffen.  A bilinear section's, or a gain within the scatter,
     is not flagged, and against design values nothing is."""
-    spread = Spread(1.3e9, 1e7, 1.28e9, 1.32e9)
-    u = SectionUncertainty(k1=spread, k2=Spread.undefined(), fy=Spread.undefined(),
-                           c=Spread(2e7, 1e6, 1.9e7, 2.1e7),
-                           ductility_factor=Spread(0.8, 0.05, 0.72, 0.88), p_yielded=0.0,
-                           p_state=(1.0, 0.0, 0.0), members=200)
-    sec = SectionResult(
-        index=1, z_bottom_m=2.0, z_top_m=4.0, k1=1.3e9, k2=1e8, fy=8e6, c=2e7,
-        yield_angle_rad=0.01, max_angle_rad=0.005, ductility_factor=0.8, state="intact",
-        yielded=False, k2_identifiable=False, fy_identifiable=False, uncertainty=u,
-        family="takeda", k_small_after=1.3e9, history_known=True)
+    sec = replace(_takeda_section(Spread(1.3e9, 1e7, 1.28e9, 1.32e9), df=0.8,
+                                  yielded=False), history_known=True)
     gain = sec.rebased(1e9, 30.0, "event ev1", event=True, stiffness=1.3e9)
     assert gain.k1_change_lo_pct > 0 and "k1" in gain.poorly_identified
     assert gain.state == "intact"  # a flag, never a state
