@@ -294,3 +294,26 @@ def test_an_rc_sections_stiffness_gain_beyond_its_interval_is_not_identified():
     assert "k1" not in sec.rebased(1e9, 30.0, "design values", stiffness=1.3e9).poorly_identified
     bilinear = replace(sec, family="bilinear", k_small_after=None)
     assert "k1" not in bilinear.rebased(1e9, 30.0, "event ev1", event=True).poorly_identified
+
+
+def test_the_cumulative_df_of_a_section_started_from_its_history_is_on_the_reference():
+    """A yielded base whose second event started from its measured history: its cumulative
+    DF (peak so far over the first event's yield rotation) has the first event's relative
+    interval alone, and the flag its own wide interval gave it goes; started virgin, the
+    event's own spread (scaled) stays in it, and so does the flag."""
+    base = replace(_takeda_section(Spread(1e9, 1e7, 0.98e9, 1.02e9), df=1.5, yielded=True),
+                   yield_angle_rad=4e-3, max_angle_rad=6e-3)
+    base = replace(base, uncertainty=replace(base.uncertainty,
+                                             ductility_factor=Spread(1.5, 0.05, 1.4, 1.6)))
+    own = replace(_takeda_section(Spread(6e8, 1e7, 5.8e8, 6.2e8), df=2.5, yielded=True),
+                  yield_angle_rad=4e-3, max_angle_rad=1e-2, poorly_identified=("DF",))
+    own = replace(own, uncertainty=replace(own.uncertainty,
+                                           ductility_factor=Spread(2.5, 0.5, 1.0, 3.0)))
+    known = replace(own, history_known=True).cumulative(base, 6e-3, "event ev1")
+    assert known.ductility_factor == pytest.approx(2.5)
+    iv = known.uncertainty.ductility_factor
+    assert (iv.lo, iv.hi) == (pytest.approx(2.5 * (1 - 0.1 / 1.5)),
+                              pytest.approx(2.5 * (1 + 0.1 / 1.5)))
+    assert "DF" not in known.poorly_identified and known.state == "damaged"
+    virgin = own.cumulative(base, 6e-3, "event ev1")
+    assert virgin.uncertainty.ductility_factor.lo < 1.5 and "DF" in virgin.poorly_identified

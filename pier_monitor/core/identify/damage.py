@@ -1023,7 +1023,8 @@ class SectionResult:
         flagged poorly identified.  A section whose spring started from its measured history
         (``history_known``) on the baseline's yield rotation has the reference's
         uncertainty alone: its peak is measured, and its own yield rotation (what its
-        members' DFs spread over) is not in the cumulative DF.  ``model_misfit``: this event's self-check found a model
+        members' DFs spread over) is not in the cumulative DF; nor is the flag its own
+        interval's width gave it (a flag of the evidence, rules 8 and 10-12, stays).  ``model_misfit``: this event's self-check found a model
         misfit (rule 9 of the module).
         """
         if not math.isfinite(self.ductility_factor) or _evidence_says_unidentified(
@@ -1056,6 +1057,10 @@ class SectionResult:
                 event_spread, float(self.ductility_factor), df,
                 _reference_spread(baseline) if yielded else None))
         flags = self.poorly_identified
+        if (self.history_known and baseline.yielded
+                and not _evidence_says_unidentified(self.evidence)):
+            # the event's own DF interval, whose width flagged it, is not this DF's
+            flags = tuple(f for f in flags if f != "DF")
         if u is not None and _too_wide(u.ductility_factor, "DF"):
             # the reference's uncertainty can widen the interval past the DF's limit
             flags = _flagged(flags, "DF")
