@@ -237,17 +237,23 @@ class ResultsStore:
         peak so far of the cumulative DF
         (:meth:`~pier_monitor.core.identify.damage.IdentificationResult.with_cumulative_ductility`).
         """
+        peaks = [[s.max_angle_rad for s in r.sections] for r in self._earlier_results(window)]
+        if not peaks:
+            return None
+        return np.nanmax(np.array(peaks, dtype=float), axis=0)
+
+    def _earlier_results(self, window: MeasuredWindow) -> list[IdentificationResult]:
+        """The reliable results of ``window``'s pier whose windows started before it and
+        whose sections are those of ``window`` (the same heights), oldest window first."""
         z = np.asarray(window.geometry.level_heights_m, dtype=float)
-        peaks = []
+        out = []
         for r in self.results(window.pier_id):
             if not (self.is_baseline(r) and r.window_start_ns < window.start_time_ns):
                 continue
             tops = np.array([s.z_top_m for s in r.sections], dtype=float)
             if tops.shape == z[1:].shape and np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
-                peaks.append([s.max_angle_rad for s in r.sections])
-        if not peaks:
-            return None
-        return np.nanmax(np.array(peaks, dtype=float), axis=0)
+                out.append(r)
+        return out
 
     def rotation_peaks_before(self, window: MeasuredWindow) -> np.ndarray | None:
         """The pier's rotation history before ``window``, as its springs carry it into the
@@ -262,14 +268,8 @@ class ResultsStore:
         (:func:`~pier_monitor.core.identify.damage.rotation_peaks_after`).  None where there
         is no such result or it does not hold the envelope of every section.
         """
-        z = np.asarray(window.geometry.level_heights_m, dtype=float)
-        latest = None
-        for r in self.results(window.pier_id):  # oldest window first
-            if not (self.is_baseline(r) and r.window_start_ns < window.start_time_ns):
-                continue
-            tops = np.array([s.z_top_m for s in r.sections], dtype=float)
-            if tops.shape == z[1:].shape and np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
-                latest = r
+        earlier = self._earlier_results(window)
+        latest = earlier[-1] if earlier else None
         if latest is None or any(s.rotation_peaks_after_rad is None for s in latest.sections):
             return None
         env = np.array([s.rotation_peaks_after_rad for s in latest.sections], dtype=float).T

@@ -174,7 +174,6 @@ __all__ = [
     "k1_change_pct",
 ]
 
-#: The float fields of a section (``null`` in a result file is NaN).
 #: Length of the end of a window over which its residual rotation is averaged, s
 #: (:func:`rotation_peaks_after`): a few periods of the piers' free vibration.
 RESIDUAL_ROTATION_S = 1.0
@@ -218,6 +217,7 @@ def rotation_peaks_after(theta: np.ndarray, dt: float,
                      np.minimum(np.minimum(before[1], th.min(axis=0)) - residual, 0.0)])
 
 
+#: The float fields of a section (``null`` in a result file is NaN).
 _SECTION_FLOATS = ("z_bottom_m", "z_top_m", "k1", "k2", "fy", "c", "yield_angle_rad",
                    "max_angle_rad", "ductility_factor")
 
@@ -1044,10 +1044,12 @@ class SectionResult:
         own = self if not self.ductility_reference else replace(
             self, ductility_factor=self.event_ductility_factor,
             yield_angle_rad=self.event_yield_angle_rad)
+        # the spring started from its measured history, on the baseline's yield rotation
+        on_reference = self.history_known and baseline.yielded
         u = self.uncertainty
         if u is not None and self.ductility_factor > 0:
             event_spread = u.ductility_factor
-            if self.history_known and baseline.yielded:
+            if on_reference:
                 # the spring started from its measured history, the reference is the
                 # baseline's yield rotation: this event's own, which a window starting past
                 # yield tells poorly, is not in the cumulative DF, nor its spread
@@ -1057,8 +1059,7 @@ class SectionResult:
                 event_spread, float(self.ductility_factor), df,
                 _reference_spread(baseline) if yielded else None))
         flags = self.poorly_identified
-        if (self.history_known and baseline.yielded
-                and not _evidence_says_unidentified(self.evidence)):
+        if on_reference and not _evidence_says_unidentified(self.evidence):
             # the event's own DF interval, whose width flagged it, is not this DF's
             flags = tuple(f for f in flags if f != "DF")
         if u is not None and _too_wide(u.ductility_factor, "DF"):

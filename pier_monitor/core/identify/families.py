@@ -139,6 +139,7 @@ from pier_monitor.core.model.springs import (
     _bilinear_kernel,
     _takeda_kernel_from,
     bilinear_skeleton,
+    check_prior_peaks,
     idealised_yield,
     takeda_skeleton,
     takeda_unloading_stiffness,
@@ -600,10 +601,7 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
             raise InputDataError(f"{name}: non-finite value at sample {i}")
     if not (np.isfinite(noise_var) and noise_var >= 0):
         raise InputDataError(f"noise_var: expected a non-negative variance, got {noise_var}")
-    prior = (float(prior_peaks[0]), float(prior_peaks[1]))
-    if not (np.isfinite(prior[0]) and np.isfinite(prior[1]) and prior[0] >= 0 >= prior[1]):
-        raise InputDataError(f"prior_peaks: expected (θ+ >= 0, θ- <= 0) in rad, got "
-                             f"{prior_peaks!r}")
+    prior = check_prior_peaks(prior_peaks)
     k1b, k2b, fyb = bilinear_fit.k1, bilinear_fit.k2, bilinear_fit.fy
     if not (k1b > 0 and fyb > 0 and 0 <= k2b < k1b):
         raise InputDataError(f"bilinear_fit: expected k1 > 0, 0 <= k2 < k1, fy > 0, got "
@@ -636,8 +634,9 @@ def fit_section_families(theta: np.ndarray, theta_dot: np.ndarray, g: np.ndarray
     # (the same parameters, the history measured), its start in ``prior_peaks``
     xt = None
     cost_t = np.inf
-    for start in ([prior, (0.0, 0.0)] if prior != (0.0, 0.0) else [prior]):
-        cand = _Problem(theta, theta_dot, g, k1b, fyb, start)
+    given = prior
+    for start in ([given, (0.0, 0.0)] if given != (0.0, 0.0) else [given]):
+        cand = prob if start == given else _Problem(theta, theta_dot, g, k1b, fyb, start)
         x_c = _solve(cand, cand.tak_moment, tak_starts, _TAK_LO, _TAK_HI, 4)
         c_c = cand.cost(cand.tak_moment, x_c)
         if xt is None or c_c < cost_t:

@@ -48,6 +48,7 @@ __all__ = [
     "SPRING_FAMILIES",
     "TakedaParameters",
     "Skeleton",
+    "check_prior_peaks",
     "bilinear_moment",
     "bilinear_skeleton",
     "takeda_moment",
@@ -280,6 +281,15 @@ def _bilinear_kernel(k1, k2, fy, theta, out, th_prev, f):  # pragma: no cover - 
         out[i] = f
 
 
+def check_prior_peaks(prior_peaks: tuple[float, float]) -> tuple[float, float]:
+    """``prior_peaks`` ``(θ+ >= 0, θ− <= 0)``, rad, as floats; InputDataError otherwise."""
+    pos, neg = (float(v) for v in prior_peaks)
+    if not (np.isfinite(pos) and np.isfinite(neg) and pos >= 0 >= neg):
+        raise InputDataError(f"prior_peaks: expected (θ+ >= 0, θ- <= 0) in rad, got "
+                             f"{prior_peaks!r}")
+    return pos, neg
+
+
 def takeda_moment(theta: np.ndarray, params: TakedaParameters,
                   prior_peaks: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
     """Moment history of a modified-Takeda spring, N·m, shape (T,).
@@ -296,10 +306,7 @@ def takeda_moment(theta: np.ndarray, params: TakedaParameters,
         reloads towards them and unloads on the stiffness they degraded.  ``(0, 0)``: virgin.
     """
     th = _check_theta(theta)
-    pos, neg = (float(v) for v in prior_peaks)
-    if not (np.isfinite(pos) and np.isfinite(neg) and pos >= 0 >= neg):
-        raise InputDataError(f"prior_peaks: expected (θ+ >= 0, θ- <= 0) in rad, got "
-                             f"{prior_peaks!r}")
+    pos, neg = check_prior_peaks(prior_peaks)
     out = np.empty_like(th)
     _takeda_kernel_from(params.as_array(), th, out, pos, neg)
     return out
