@@ -152,7 +152,10 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
        suspicious (:meth:`IdentificationResult.with_evidence`), never a reliable intact.
        Sections whose rotations no sensor tells apart (a level between them unmeasured)
        share their damage under a model misfit or a reinforced-concrete family: none
-       intact where one yielded, none damaged on its own DF (rule 11).
+       intact where one yielded, none damaged on its own DF (rule 11).  With a
+       reinforced-concrete family, a section whose rotation no displacement sensor measures
+       and whose reconstruction passes its yield rotation beside a yielded section "may
+       have yielded", its DF not identified (rule 14).
        ``result.json`` holds the misfit (``model_misfit``) and each section's
        ``energy_index`` and ``evidence``.
     5. With a baseline, each section's DF is the cumulative one, on the virgin section's
@@ -232,7 +235,8 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     run = replace(run, result=result.with_evidence(
         check.energy_index, evidence, misfit,
         fit_limits=section_fit_limits(checked, window, k1_too=own_fits),
-        measured_levels=window.coverage.motion))
+        measured_levels=window.coverage.motion,
+        displacement_levels=window.coverage.displacement))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,

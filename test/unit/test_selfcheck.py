@@ -14,6 +14,7 @@ from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DA
                                                SPLIT_UNMEASURED, split_unmeasured_evidence,
                                                YIELD_OUT_OF_REACH, yield_out_of_reach_evidence,
                                                YIELD_TEST_SHORT, yield_test_evidence,
+                                               YIELD_SPLIT, yield_split_evidence,
                                                IdentificationResult, build_sections,
                                                overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
@@ -450,6 +451,76 @@ def test_a_yield_out_of_reach_flags_its_neighbours_only_where_one_of_them_yielde
     assert yield_out_of_reach_evidence([3.0, 0.1], [True, False], None) == [(), ()]
     with pytest.raises(InputDataError, match="expected 2 entries"):
         yield_out_of_reach_evidence([3.0, 0.1], [True, False], [1.0])
+
+
+def test_a_section_past_its_yield_rotation_beside_a_yielded_one_may_have_yielded(cases):
+    """Rule 14, as on the drawn sequences' tuning seed 615 (Table 1, accelerometers, second
+    shaking): section 2, reconstructed 1.11 times past its idealised yield rotation beside a
+    base at DF 8.60, failed the yield test and read DF 1.00 [1.00, 1.00] "not yielded"
+    against a true 4.11.  It is suspicious, "may have yielded", its DF flagged and its
+    interval reaching the base's DF; section 3 (past its yield rotation, but beside no
+    yielded section) and section 4 keep theirs; where the rotations are measured
+    (displacements at every level), or with the bilinear chosen, nothing changes."""
+    window, truth, _ = cases[1]
+    p = (0.0, 0.0, 1.0)
+    family = {"family": "takeda", "peak_rotation": [8.6e-2, 1.11e-2, 1.3e-2, 2e-3],
+              "idealised_yield_rotation": [1e-2] * 4}
+    own = _result(window, truth, (8.6, 1.0, 1.0, 0.2), p_overall_state=p, family=family)
+    sec = list(own.sections)
+    sec[0] = dataclasses.replace(sec[0], uncertainty=_base_uncertainty(
+        Spread(8.6, 1.0, 6.2, 10.3), p))
+    sec[1] = dataclasses.replace(sec[1], uncertainty=dataclasses.replace(
+        _base_uncertainty(Spread(1.0, 0.0, 1.0, 1.0), (1.0, 0.0, 0.0)), p_yielded=0.0))
+    own = dataclasses.replace(own, sections=tuple(sec))
+    assert [s.state for s in own.sections] == ["damaged", "intact", "intact", "intact"]
+    assert own.sections[1].yield_status == "not yielded"
+    clean = model_misfit(window, truth).as_dict()
+    accel_only = np.zeros(4, dtype=bool)
+    result = own.with_evidence(np.zeros(4), [()] * 4, clean, displacement_levels=accel_only)
+    assert [s.state for s in result.sections] == ["damaged", "suspicious", "intact", "intact"]
+    second = result.sections[1]
+    assert second.evidence == (
+        f"{YIELD_SPLIT}: its reconstructed rotation passes its yield rotation (1.11 times) "
+        "beside a yielded section (section 1 DF 8.60), and the accelerations hardly tell how "
+        "the plastic rotation is split between them: its DF not identified (up to 8.60)",)
+    assert "DF" in second.poorly_identified and second.yield_status == "may have yielded"
+    df = second.uncertainty.ductility_factor
+    assert df.lo == 1.0 and df.hi == pytest.approx(8.6, rel=1e-6)
+    assert result.sections[0].uncertainty == own.sections[0].uncertainty
+    # read back and decided again: the evidence and the interval stay
+    again = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
+        truth.k1, "design values")
+    assert [s.state for s in again.sections] == ["damaged", "suspicious", "intact", "intact"]
+    assert again.sections[1].uncertainty.ductility_factor.hi == pytest.approx(8.6, rel=1e-6)
+    # rotations measured, no displacement levels given, or the bilinear chosen: no change
+    for other, levels in ((own, np.ones(4, dtype=bool)), (own, None),
+                          (dataclasses.replace(own, family=dict(family, family="bilinear")),
+                           accel_only)):
+        kept = other.with_evidence(np.zeros(4), [()] * 4, clean, displacement_levels=levels)
+        assert [s.state for s in kept.sections] == [s.state for s in own.sections]
+        assert kept.sections[1].evidence == ()
+
+
+def test_yield_split_evidence_needs_an_unmeasured_rotation_and_a_yielded_neighbour():
+    """The base measured at its top but not section 2's top level: section 2's rotation is
+    not measured, the base's is; a section 1.0 times its yield rotation has not passed it;
+    shapes are checked."""
+    out = yield_split_evidence([3.0, 1.0, 1.0], [True, False, False], [3.0, 1.5, 1.0],
+                               [True, False, False])
+    assert out[0] == ((), out[0][1]) and np.isnan(out[0][1])
+    assert out[1][1] == 3.0 and out[1][0][0].startswith(YIELD_SPLIT)
+    assert out[2][0] == ()  # exactly at its yield rotation, beside no yielded section
+    # section 2 beside two yielded sections: the larger DF bounds it
+    out = yield_split_evidence([3.0, 1.0, 2.0], [True, False, True], [3.0, 1.5, 2.0],
+                               [False] * 3)
+    assert out[1][1] == 3.0 and "section 1 DF 3.00, section 3 DF 2.00" in out[1][0][0]
+    # both end levels of section 2 measured: nothing
+    out = yield_split_evidence([3.0, 1.0], [True, False], [3.0, 1.5], [True, True])
+    assert out[1][0] == ()
+    assert [x[0] for x in yield_split_evidence([3.0, 1.0], [True, False], None,
+                                               [False, False])] == [(), ()]
+    with pytest.raises(InputDataError, match="expected 2 entries"):
+        yield_split_evidence([3.0, 1.0], [True, False], [3.0], [False, False])
 
 
 def test_a_yield_test_just_short_gives_evidence_on_unyielded_springs_only():

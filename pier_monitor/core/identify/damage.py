@@ -105,6 +105,21 @@ applies with or without an ensemble, and only raises a state
     tests a share near the threshold splits so that few of them yield: on the held-out
     suite's tuning draws (E-Defense, accelerometers, seed 655) section 2 at a true DF of 1.60
     was reported intact with P(yield) 0.03 and a share of 0.78.
+14. where a reinforced-concrete family was chosen, a section reported not yielded whose
+    rotation no displacement sensor measures (an end level without one: the field
+    reconstruction), whose reconstructed peak rotation passes the idealised yield rotation of
+    its identified skeleton, next to a section reported yielded, "may have yielded"
+    (:func:`yield_split_evidence`, the evidence :data:`YIELD_SPLIT`): the accelerations
+    hardly tell how the plastic rotation is split between two neighbouring springs, and the
+    fit's yield test, which holds the spring elastic while its neighbours take up the
+    rotation, cannot confirm its yield.  Its DF is not identified (flagged, and its 90 %
+    interval reaches up to its yielded neighbour's DF), it is at least suspicious, and its
+    ``yield_status`` says "may have yielded".  Found on the drawn two-shaking sequences' tuning
+    seeds (``rc_sequence_drawn_tuning``, Table 1, accelerometers): section 2, beside a
+    yielded base, read DF 1.00 [1.00, 1.00] "not yielded" against true DFs of 1.07-4.11 in
+    6 events; of the tuning sections that passed their yield rotation without passing the
+    test, those were the 6 truly yielded of the 14 beside a yielded section (the other 8 at
+    true DFs of 0.45-0.98), and none of the 30 elsewhere.
 
 A section's state probabilities (``uncertainty.p_state``, the members' shares) follow the
 self-check's evidence as its state does (:func:`_p_state_with_evidence`): the members never
@@ -155,6 +170,8 @@ __all__ = [
     "MAX_YIELD_ROTATION_RATIO",
     "YIELD_TEST_SHORT",
     "yield_test_evidence",
+    "YIELD_SPLIT",
+    "yield_split_evidence",
     "with_section_evidence",
     "with_k1_unresolved",
     "p_overall_with_section_evidence",
@@ -298,6 +315,10 @@ VIRGIN_START_STIFFNESS = 0.2
 #: ``FieldSettings.yield_hint_share``, short of what calls it yielded
 #: (:func:`yield_test_evidence`).
 YIELD_TEST_SHORT = "may have yielded by the yield test"
+#: Rule 14's evidence: a section reported elastic whose reconstructed rotation passes its
+#: idealised yield rotation beside a yielded section, on rotations no displacement sensor
+#: measures (:func:`yield_split_evidence`).
+YIELD_SPLIT = "may have yielded beside a yielded section"
 
 #: A section is reported "not yielded" only while the probability that its spring yielded
 #: (the share of the ensemble's members) is below this.
@@ -584,6 +605,65 @@ def yield_out_of_reach_evidence(ductility: Sequence[float] | np.ndarray,
     return out
 
 
+def yield_split_evidence(ductility: Sequence[float] | np.ndarray,
+                         yielded: Sequence[bool] | np.ndarray,
+                         passed_yield: Sequence[float] | np.ndarray | None,
+                         displacement_levels: Sequence[bool] | np.ndarray | None
+                         ) -> list[tuple[tuple[str, ...], float]]:
+    """Rule 14's evidence per section, with the upper end its DF interval reaches.
+
+    A section reported not yielded whose ``passed_yield`` is above 1, whose rotation is not
+    measured (one of its end levels has no displacement sensor), next to a section reported
+    yielded, gets one line and the largest DF of its yielded neighbours; every other
+    section ``((), nan)``.
+
+    Parameters
+    ----------
+    ductility : sequence of float, shape (N,)
+        The DF each section shows, from the base up.
+    yielded : sequence of bool, shape (N,)
+        Whether each section is reported yielded.
+    passed_yield : sequence of float, shape (N,), or None
+        The chosen RC family's reconstructed peak rotation over the idealised yield
+        rotation of its skeleton (:class:`~pier_monitor.core.identify.families.
+        FamilyChoice`: ``peak_rotation / idealised_yield_rotation``, dimensionless); None (the
+        bilinear chosen): no evidence.
+    displacement_levels : sequence of bool, shape (N,), or None
+        Whether level ``i`` (1..N) has a displacement sensor (the foundation, level 0, is
+        the reference of every displacement); None: no evidence.
+
+    Raises
+    ------
+    InputDataError
+        If ``yielded``, ``passed_yield`` or ``displacement_levels`` does not have one entry
+        per DF.
+    """
+    df = np.asarray(ductility, dtype=float)
+    n = df.size
+    none: list[tuple[tuple[str, ...], float]] = [((), math.nan)] * n
+    if passed_yield is None or displacement_levels is None:
+        return none
+    ratio = np.asarray(passed_yield, dtype=float)
+    disp = np.asarray(displacement_levels, dtype=bool)
+    y = np.asarray(yielded, dtype=bool)
+    if y.shape != (n,) or ratio.shape != (n,) or disp.shape != (n,):
+        raise InputDataError(f"yielded, passed yield and displacement levels: expected {n} "
+                             f"entries, got shapes {y.shape}, {ratio.shape} and {disp.shape}")
+    measured = disp & np.r_[True, disp[:-1]]  # both end levels of section i (levels i, i + 1)
+    out = list(none)
+    for i in range(n):
+        near = [j for j in (i - 1, i + 1) if 0 <= j < n and y[j]]
+        if y[i] or measured[i] or not near or not ratio[i] > 1.0:
+            continue
+        bound = float(max(df[j] for j in near))
+        dfs = ", ".join(f"section {j + 1} DF {df[j]:.2f}" for j in near)
+        out[i] = ((f"{YIELD_SPLIT}: its reconstructed rotation passes its yield rotation "
+                   f"({ratio[i]:.2f} times) beside a yielded section ({dfs}), and the "
+                   "accelerations hardly tell how the plastic rotation is split between "
+                   f"them: its DF not identified (up to {bound:.2f})",), bound)
+    return out
+
+
 def _k1_unidentified(section: SectionResult) -> bool:
     """Whether ``section``'s ``k1`` is no reference for a ``k1`` loss: rule 8 or 10 says it
     (or its fit) is not identified, or its ensemble left it without an interval (a ``k1``
@@ -593,6 +673,18 @@ def _k1_unidentified(section: SectionResult) -> bool:
     u = section.uncertainty
     return _evidence_says_unidentified(section.evidence) or (
         u is not None and u.members >= 2 and not u.k1.defined)
+
+
+def _df_reaching(uncertainty: SectionUncertainty | None, upto: float
+                 ) -> SectionUncertainty | None:
+    """``uncertainty`` with its DF interval's upper end raised to ``upto`` where that is
+    higher (rule 14); None stays None."""
+    if uncertainty is None or not math.isfinite(upto):
+        return uncertainty
+    df = uncertainty.ductility_factor
+    if not df.defined or df.hi >= upto:
+        return uncertainty
+    return replace(uncertainty, ductility_factor=replace(df, hi=float(upto)))
 
 
 def _flagged(flags: tuple[str, ...], *names: str) -> tuple[str, ...]:
@@ -921,11 +1013,12 @@ class SectionResult:
 
         A section reported as not yielded "may have yielded" when its ensemble gives a
         probability of yielding of at least :data:`P_YIELD_LOW` (rule 3), or its own yield
-        test fell just short (rule 13, evidence :data:`YIELD_TEST_SHORT`).
+        test fell just short (rule 13, evidence :data:`YIELD_TEST_SHORT`), or it passed its
+        yield rotation beside a yielded section (rule 14, :data:`YIELD_SPLIT`).
         """
         if self.yielded:
             return "yielded"
-        short = any(str(e).startswith(YIELD_TEST_SHORT) for e in self.evidence)
+        short = any(str(e).startswith((YIELD_TEST_SHORT, YIELD_SPLIT)) for e in self.evidence)
         return ("may have yielded" if short or _may_have_yielded(False, self.uncertainty)
                 else "not yielded")
 
@@ -1300,7 +1393,8 @@ class IdentificationResult:
                       evidence: Sequence[Sequence[str]],
                       model_misfit: dict[str, Any] | None = None,
                       fit_limits: Sequence[Sequence[tuple[str, str]]] | None = None,
-                      measured_levels: Sequence[bool] | np.ndarray | None = None
+                      measured_levels: Sequence[bool] | np.ndarray | None = None,
+                      displacement_levels: Sequence[bool] | np.ndarray | None = None
                       ) -> IdentificationResult:
         """A copy with the self-check's energy indices, evidence and misfit summary.
 
@@ -1316,7 +1410,11 @@ class IdentificationResult:
         them yielded, and ``DF`` in their ``poorly_identified``.  Where a reinforced-concrete
         family was chosen, a section whose yield rotation is out of reach, and its
         neighbours where one of them yielded, get rule 12's line
-        (:func:`yield_out_of_reach_evidence`) and ``DF`` in their ``poorly_identified``.
+        (:func:`yield_out_of_reach_evidence`) and ``DF`` in their ``poorly_identified``; with
+        ``displacement_levels``, a section not yielded whose reconstructed rotation passes its
+        yield rotation beside a yielded section gets rule 14's line
+        (:func:`yield_split_evidence`), ``DF`` in its ``poorly_identified`` and its DF
+        interval up to that neighbour's DF.
         The evidence the identification gave itself (rule 13, :func:`with_section_evidence`)
         stays, first, and is not applied again.
 
@@ -1334,6 +1432,8 @@ class IdentificationResult:
             (:func:`~pier_monitor.core.identify.checks.section_fit_limits`).
         measured_levels : sequence of bool, shape (N,), optional
             Whether each level (1..N) has a sensor of its motion (rule 11; None: every level).
+        displacement_levels : sequence of bool, shape (N,), optional
+            Whether each level (1..N) has a displacement sensor (rule 14; None: no rule 14).
 
         Raises
         ------
@@ -1358,8 +1458,16 @@ class IdentificationResult:
         reach = yield_out_of_reach_evidence(
             [x.ductility_factor for x in self.sections], [x.yielded for x in self.sections],
             (self.family or {}).get("yield_rotation_vs_design") if rc_family else None)
+        fam = self.family or {}
+        passed = (np.asarray(fam["peak_rotation"], dtype=float)
+                  / np.asarray(fam["idealised_yield_rotation"], dtype=float)
+                  if rc_family and fam.get("peak_rotation") is not None else None)
+        apart = yield_split_evidence([x.ductility_factor for x in self.sections],
+                                     [x.yielded for x in self.sections], passed,
+                                     displacement_levels)
         sections = []
-        for s, e, ev, lim, sp, far in zip(self.sections, energy, evidence, limits, split, reach):
+        for s, e, ev, lim, sp, far, (sv, upto) in zip(self.sections, energy, evidence, limits,
+                                                     split, reach, apart):
             # the identification's own evidence (rule 13), already applied, stays beside
             # the self-check's
             own = tuple(e for e in s.evidence if str(e).startswith(YIELD_TEST_SHORT))
@@ -1370,6 +1478,10 @@ class IdentificationResult:
             if far and is_diagnosis(s.damage_state):  # rule 12
                 ev = (*ev, *far)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "DF"))
+            if sv and is_diagnosis(s.damage_state):  # rule 14
+                ev = (*ev, *sv)
+                s = replace(s, poorly_identified=_flagged(s.poorly_identified, "DF"),
+                            uncertainty=_df_reaching(s.uncertainty, upto))
             if bilinear_misfit and is_diagnosis(s.damage_state):  # rule 8
                 ev = (*ev, bilinear_misfit)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "k1", "DF"))
