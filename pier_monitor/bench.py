@@ -973,7 +973,8 @@ def bench_rc_sequence_drawn(seeds: tuple[int, ...] = RC_SEQUENCE_HELD_OUT_SEEDS,
     are shown as identified (``k1`` not flagged in either event), how many of those have
     their 90 % interval holding the truth, are within :data:`K_CHANGE_TARGET_POINTS` of it
     and have its sign (a true change within ±1 % has none to get wrong), their mean and
-    largest error; and the intervals of the flagged ones.  A sequence whose test-bed
+    largest error; and the intervals of the flagged ones; and, under ``df``, the DFs and
+    states of both events' sections (:func:`_count_df`).  A sequence whose test-bed
     simulation fails is an entry with ``skipped`` (the test-bed's own Newmark iteration).
     """
     out: list[dict[str, Any]] = []
@@ -989,6 +990,43 @@ def bench_rc_sequence_drawn(seeds: tuple[int, ...] = RC_SEQUENCE_HELD_OUT_SEEDS,
                 continue
             out.extend({**r, "pier": pier, "split": split} for r in runs)
     return [*out, summarize_rc_sequence(out)]
+
+
+def _df_counts() -> dict[str, Any]:
+    """Empty DF and state counts of :func:`_count_df`."""
+    return {"yielded": 0, "yielded_err_pct": [], "yielded_within_15pct": 0,
+            "yielded_interval_holds": 0, "yielded_shown": 0, "yielded_shown_missed": 0,
+            "yielded_not_yielded_shown": 0, "elastic": 0, "elastic_intact": 0,
+            "elastic_df_flagged": 0, "intact_at_df_ge_1.5": 0, "damaged_at_df_lt_1.2": 0}
+
+
+def _count_df(d: dict[str, Any], event: dict[str, Any]) -> None:
+    """Adds one event's sections to the counts ``d`` (:func:`_df_counts`): over the sections
+    whose reinforcement yielded (true DF above 1) the DF error, how many are within 15 %,
+    whose 90 % interval holds the truth, how many DFs are shown as identified (not flagged)
+    and of those how many miss their interval, and how many read "not yielded" (DF at most
+    1) while shown; over the elastic sections how many are intact and how many have their
+    DF flagged; the wrong states of the RC acceptance."""
+    for df, t, iv, flags, st in zip(event["df"], event["true_df"], event["df_interval"],
+                                    event["poorly_identified"], event["states"]):
+        if df is None or t is None:
+            continue
+        d["intact_at_df_ge_1.5"] += int(st == "intact" and t >= 1.5)
+        d["damaged_at_df_lt_1.2"] += int(st == "damaged" and t < 1.2)
+        holds = iv is not None and iv[0] <= t <= iv[1]
+        if t > 1.0:
+            d["yielded"] += 1
+            d["yielded_err_pct"].append(100.0 * abs(df / t - 1.0))
+            d["yielded_within_15pct"] += int(abs(df / t - 1.0) <= 0.15)
+            d["yielded_interval_holds"] += int(holds)
+            if "DF" not in flags:
+                d["yielded_shown"] += 1
+                d["yielded_shown_missed"] += int(not holds)
+                d["yielded_not_yielded_shown"] += int(df <= 1.0)
+        else:
+            d["elastic"] += 1
+            d["elastic_intact"] += int(st == "intact")
+            d["elastic_df_flagged"] += int("DF" in flags)
 
 
 def summarize_rc_sequence(runs: list[dict[str, Any]]) -> dict[str, Any]:
@@ -1021,10 +1059,16 @@ def summarize_rc_sequence(runs: list[dict[str, Any]]) -> dict[str, Any]:
             g["within_target"] += int(abs(rep - t) <= K_CHANGE_TARGET_POINTS)
             g["sign_right"] += int(abs(t) <= 1.0 or (rep < 0) == (t < 0))
             g["abs_err_points"].append(abs(rep - t))
+    for key, r in events.items():
+        _count_df(groups[f"{key[1]}/{key[2]}"].setdefault("df", _df_counts()), r)
     for g in groups.values():
         errs = g.pop("abs_err_points")
         g["abs_err_points_mean"] = float(np.mean(errs)) if errs else None
         g["abs_err_points_max"] = float(np.max(errs)) if errs else None
+        d = g.get("df")
+        if d is not None:
+            errs = d.pop("yielded_err_pct")
+            d["yielded_err_pct_mean"] = float(np.mean(errs)) if errs else None
     return {"case": "rc_sequence_drawn_summary",
             "tuning_seeds": list(RC_SEQUENCE_TUNING_SEEDS),
             "held_out_seeds": list(RC_SEQUENCE_HELD_OUT_SEEDS),
@@ -1130,6 +1174,20 @@ def format_table(results: list[dict[str, Any]]) -> str:
             lines.append(f"  {key:<18} {g['sequences']:>4} {g['shown']:>6} {g['held']:>5} "
                          f"{g['within_target']:>7} {g['sign_right']:>5} {err:>16} "
                          f"{g['flagged_held']:>6}/{g['flagged']:<6}")
+        lines.append("  DFs of both events (true DF above 1: yielded; intervals 90 %)")
+        lines.append(f"  {'pier/layout':<18} {'yielded':>7} {'err %':>6} {'<=15%':>6} "
+                     f"{'iv holds':>8} {'shown':>6} {'shown out':>9} {'shown <=1':>9} "
+                     f"{'elastic':>7} {'intact':>6} {'DF flag':>7}")
+        for key, g in r["groups"].items():
+            d = g.get("df")
+            if d is None:
+                continue
+            err = "-" if d["yielded_err_pct_mean"] is None else f"{d['yielded_err_pct_mean']:.1f}"
+            lines.append(f"  {key:<18} {d['yielded']:>7} {err:>6} {d['yielded_within_15pct']:>6} "
+                         f"{d['yielded_interval_holds']:>8} {d['yielded_shown']:>6} "
+                         f"{d['yielded_shown_missed']:>9} {d['yielded_not_yielded_shown']:>9} "
+                         f"{d['elastic']:>7} {d['elastic_intact']:>6} "
+                         f"{d['elastic_df_flagged']:>7}")
         for sk in r["skipped"]:
             lines.append(f"  skipped: seed {sk['seed']} {sk['pier']}: {sk['why']}")
     ident = [r for r in results if "mae_pct" in r]

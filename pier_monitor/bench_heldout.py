@@ -67,6 +67,11 @@ TUNING = {
                                "flag: rc_sequence_drawn sequences, tuning seeds 620-625 "
                                "(accelerometers); the stiffening flag was made after "
                                "seeing held-out seed 642"),
+    "yield_split": ("rule 14 (a Takeda section not yielded past its reconstructed yield "
+                    "rotation beside a yielded section, rotation not measured: may have "
+                    "yielded, DF flagged): found on rc_sequence_drawn tuning seeds 610-615 "
+                    "and 620-625 (Table 1, accelerometers), checked on the heldout suite's "
+                    "tuning draws 620-639 (accelerometers, both piers); no threshold tuned"),
     "field_posterior_scaling": "coverage suite, seeds 100-109 (E-Defense, accel/sparse)",
     "field_member_yield_test": ("members' yield test weighed against the fit's chi-square: "
                                 "diagnosed and checked on heldout_case draws, tuning seeds "

@@ -317,3 +317,32 @@ def test_the_cumulative_df_of_a_section_started_from_its_history_is_on_the_refer
     assert "DF" not in known.poorly_identified and known.state == "damaged"
     virgin = own.cumulative(base, 6e-3, "event ev1")
     assert virgin.uncertainty.ductility_factor.lo < 1.5 and "DF" in virgin.poorly_identified
+
+
+def test_the_sequence_summary_counts_dfs_shown_as_identified_and_their_misses():
+    """``summarize_rc_sequence``'s DF counts over both events of one sequence: a yielded
+    base within its interval, a yielded section 2 shown as "not yielded" (DF 1.00 [1.00,
+    1.00] against 4.11), the same flagged, and elastic sections intact and flagged."""
+    from pier_monitor.bench import summarize_rc_sequence
+
+    def event(n: int, df2: float, iv2: list[float], flags2: list[str], st2: str) -> dict:
+        return {"case": "rcseqdraw_takeda_table1_accel", "seed": 1, "pier": "table1",
+                "layout": "accel", "event": n, "states": ["damaged", st2, "intact"],
+                "df": [3.0, df2, 0.5], "true_df": [3.3, 4.11, 0.4],
+                "df_interval": [[2.7, 3.5], iv2, [0.3, 0.7]],
+                "poorly_identified": [[], flags2, ["DF"] if n == 2 else []]}
+
+    runs = [event(1, 1.0, [1.0, 1.0], [], "suspicious"),
+            event(2, 1.0, [1.0, 8.6], ["DF"], "suspicious"),
+            {"case": "rcseqdraw_takeda_table1_accel_summary", "seed": 1, "pier": "table1",
+             "layout": "accel", "reported_k1_change_pct": [None] * 3,
+             "reported_k1_change_interval_pct": [None] * 3,
+             "true_k_small_change_pct_event2": [None] * 3}]
+    d = summarize_rc_sequence(runs)["groups"]["table1/accel"]["df"]
+    assert (d["yielded"], d["yielded_within_15pct"], d["yielded_interval_holds"]) == (4, 2, 3)
+    assert (d["yielded_shown"], d["yielded_shown_missed"], d["yielded_not_yielded_shown"]) \
+        == (3, 1, 1)
+    assert (d["elastic"], d["elastic_intact"], d["elastic_df_flagged"]) == (2, 2, 1)
+    assert d["intact_at_df_ge_1.5"] == d["damaged_at_df_lt_1.2"] == 0
+    errs = [100 * abs(3.0 / 3.3 - 1)] * 2 + [100 * abs(1.0 / 4.11 - 1)] * 2
+    assert d["yielded_err_pct_mean"] == pytest.approx(sum(errs) / 4)

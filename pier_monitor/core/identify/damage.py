@@ -117,9 +117,11 @@ applies with or without an ensemble, and only raises a state
     ``yield_status`` says "may have yielded".  Found on the drawn two-shaking sequences' tuning
     seeds (``rc_sequence_drawn_tuning``, Table 1, accelerometers): section 2, beside a
     yielded base, read DF 1.00 [1.00, 1.00] "not yielded" against true DFs of 1.07-4.11 in
-    6 events; of the tuning sections that passed their yield rotation without passing the
-    test, those were the 6 truly yielded of the 14 beside a yielded section (the other 8 at
-    true DFs of 0.45-0.98), and none of the 30 elsewhere.
+    6 events.  Of the Takeda sections on accelerometers that passed their yield rotation
+    without passing the test (those sequences' tuning seeds and the held-out suite's tuning
+    draws 620-639, both piers: 59 sections), the 20 beside a yielded section held those 6
+    and 14 elastic ones at true DFs of 0.70-0.97; none of the 39 elsewhere had yielded
+    (true DFs up to 0.98), so they keep "not yielded".
 
 A section's state probabilities (``uncertainty.p_state``, the members' shares) follow the
 self-check's evidence as its state does (:func:`_p_state_with_evidence`): the members never
