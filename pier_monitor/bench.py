@@ -570,7 +570,7 @@ def _checked_states(run: dict[str, Any], limits: MisfitLimits) -> list[str]:
     reinforced-concrete family (rule 11, :func:`~pier_monitor.core.identify.damage.
     split_unmeasured_evidence`), and a section whose RC spring's yield is out of reach and its
     neighbours where one yielded neither intact nor damaged (rule 12, :func:`~pier_monitor.
-    core.identify.damage.yield_out_of_reach_evidence`); rule 10 is not modelled."""
+    core.identify.damage.yield_out_of_reach_evidence`); rules 10 and 14 are not modelled."""
     kind = _judged(run, limits)
     if kind == "sensor":
         return ["unreliable"] * len(run["states"])

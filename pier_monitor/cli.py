@@ -351,7 +351,7 @@ def _print_event(ev: EventOutcome) -> None:
             ch = "-" if sec.k1_change_pct is None else f"{sec.k1_change_pct:+.1f} %"
             design = "" if sec.k1_vs_design_pct is None else f"{sec.k1_vs_design_pct:+.1f} %"
             print(f"{sec.index + 1:>8} {sec.z_bottom_m:>5.1f}-{sec.z_top_m:<5.1f} {sec.k1:>13.4g} "
-                  f"{k2:>13} {fy:>10} {sec.c:>14.4g} {format_df(sec.ductility_factor, sec.yielded):>7} "
+                  f"{k2:>13} {fy:>10} {sec.c:>14.4g} {format_df(sec.ductility_factor, not sec.ductility_factor_upper_bound):>7} "
                   f"{sec.state:>10} {ch:>10} {design:>10}")
         print(f"k1 change: against {r.k1_baseline or 'nothing (no earlier event)'}; vs design: "
               "difference from the design values, not a change")

@@ -242,7 +242,8 @@ def _section_change(sa: SectionResult, sb: SectionResult, against_a: SectionResu
         index=sa.index, z_bottom_m=sa.z_bottom_m, z_top_m=sa.z_top_m, k1_before=sa.k1,
         k1_after=sb.k1, k1_change_pct=float(against_a.k1_change_pct),
         df_before=sa.ductility_factor, df_after=sb.ductility_factor,
-        df_before_bound=not sa.yielded, df_after_bound=not sb.yielded,
+        df_before_bound=sa.ductility_factor_upper_bound,
+        df_after_bound=sb.ductility_factor_upper_bound,
         state_before=sa.state, state_after=state,
         k1_change_lo_pct=against_a.k1_change_lo_pct, k1_change_hi_pct=against_a.k1_change_hi_pct,
         k1_change_scatter_pct=against_a.k1_change_scatter_pct, reasons=reasons)

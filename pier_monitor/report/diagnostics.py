@@ -53,7 +53,10 @@ def _has_uncertainty(section: dict[str, Any]) -> bool:
 
 
 def _df_bound(s: dict[str, Any]) -> bool:
-    """The section's DF is only an upper bound: its spring did not yield."""
+    """The section's DF is only an upper bound: its spring did not yield (``result.json``'s
+    ``ductility_factor_upper_bound``; not there, a result written before it: not yielded)."""
+    if "ductility_factor_upper_bound" in s:
+        return bool(s["ductility_factor_upper_bound"])
     return not s["k2_identifiable"] and math.isfinite(s["ductility_factor"])
 
 

@@ -315,7 +315,7 @@ def plot_profile(results: Sequence[IdentificationResult], labels: Sequence[str] 
         if len(results) <= 2:  # DF values as numbers, right of the section's markers
             for j, r in enumerate(results):
                 for i, s in enumerate(r.sections):
-                    ax_df.annotate(format_df(s.ductility_factor, s.yielded),
+                    ax_df.annotate(format_df(s.ductility_factor, not s.ductility_factor_upper_bound),
                                    (float(np.nanmax(df_ext[:, i])), zj[j][i]), xytext=(8, 0),
                                    textcoords="offset points", fontsize=8.5,
                                    color=line_colors[j], va="center",
@@ -469,7 +469,8 @@ def plot_hysteresis(run: RunLike, path: str | Path, *,
                         f"($f_y$ ≥ max|M| = {peak / m_fac:.3g} {m_unit})",
                         transform=ax.transAxes, va="top", ha="left", fontsize=8.5,
                         bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.9))
-                title = f"{s.yield_status}, DF ≤ {s.ductility_factor:.2f}{_df_interval(s)}"
+                title = (f"{s.yield_status}, DF {'≤ ' if s.ductility_factor_upper_bound else ''}"
+                         f"{s.ductility_factor:.2f}{_df_interval(s)}")
             mpad = 0.12 * max(mhi - mlo, 1e-12)
             ax.set_xlim((lo - pad) / t_fac, (hi + pad) / t_fac)
             ax.set_ylim((mlo - mpad) / m_fac, (mhi + mpad) / m_fac)

@@ -143,7 +143,7 @@ class FleetSummary:
         for i, row in enumerate(self.rows, 1):
             df, section = row.max_df
             df_text = "n/a" if section is None else \
-                f"{format_df(df, row.result.sections[section - 1].yielded)} (S{section})"
+                f"{format_df(df, not row.result.sections[section - 1].ductility_factor_upper_bound)} (S{section})"
             if row.k1_change_pct is None:
                 change = "-"
             else:
@@ -177,7 +177,7 @@ def plot_fleet(summary: FleetSummary, path: str | Path) -> Path:
             for s in row.result.sections:
                 state = s.state if row.result.success else "unknown"
                 ax.add_patch(_cell(s.index, i, STATE_COLORS[state]))
-                label = format_df(s.ductility_factor, s.yielded) if row.result.success else "—"
+                label = format_df(s.ductility_factor, not s.ductility_factor_upper_bound) if row.result.success else "—"
                 ax.text(s.index, i, label, ha="center", va="center", fontsize=8)
         ax.set_xlim(-0.5, n_cols - 0.5)
         ax.set_ylim(max(len(rows), 1) - 0.5, -0.5)

@@ -88,7 +88,8 @@ def section_label(section: dict[str, Any]) -> str:
         return f"{head}: no diagnosis (DF {section['ductility_factor']:.2f})"
     change = section["k1_change_pct"]
     k1 = "k1 n/a" if change is None or not math.isfinite(change) else f"k1 {change:+.1f} %"
-    return f"{head} DF {format_df(section['ductility_factor'], section['k2_identifiable'], bound='<=')} {k1}"
+    bounded = section.get("ductility_factor_upper_bound", not section["k2_identifiable"])
+    return f"{head} DF {format_df(section['ductility_factor'], not bounded, bound='<=')} {k1}"
 
 
 def _marker(header: dict[str, Any], ns: str, index: int, kind: int, xyz: tuple[float, ...],

@@ -73,7 +73,7 @@ def uncertainty_table(result: IdentificationResult) -> str:
             f"{s.k1_change_pct:+.1f} "
             f"{format_interval(s.k1_change_lo_pct, s.k1_change_hi_pct, '+.1f')}")
         design = "" if s.k1_vs_design_pct is None else f"{s.k1_vs_design_pct:+.1f}"
-        df = ("" if s.yielded else "≤ ") + _cell(u.ductility_factor, 1.0, '.2f') + flag["DF"]
+        df = ("≤ " if s.ductility_factor_upper_bound else "") + _cell(u.ductility_factor, 1.0, '.2f') + flag["DF"]
         rows.append(f"{s.index + 1:>7}  {cells}  {df:<18} "
                     f"{u.p_yielded:>10.2f}  {p:<20}  {change:<20}  {design}")
     rows += [f"section {s.index + 1}: {s.state}: {reason}" for s in sections

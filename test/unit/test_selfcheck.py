@@ -484,6 +484,10 @@ def test_a_section_past_its_yield_rotation_beside_a_yielded_one_may_have_yielded
         "beside a yielded section (section 1 DF 8.60), and the accelerations hardly tell how "
         "the plastic rotation is split between them: its DF not identified (up to 8.60)",)
     assert "DF" in second.poorly_identified and second.yield_status == "may have yielded"
+    # its DF is no longer shown as an upper bound ("≤ 1.00")
+    assert own.sections[1].ductility_factor_upper_bound
+    assert not second.ductility_factor_upper_bound
+    assert second.to_dict()["ductility_factor_upper_bound"] is False
     df = second.uncertainty.ductility_factor
     assert df.lo == 1.0 and df.hi == pytest.approx(8.6, rel=1e-6)
     assert result.sections[0].uncertainty == own.sections[0].uncertainty

@@ -1000,9 +1000,12 @@ class SectionResult:
     def ductility_factor_upper_bound(self) -> bool:
         """Whether the DF is only an upper bound (about 1): the spring did not yield.
 
-        False where there is no DF (NaN: a failed identification).
+        False where there is no DF (NaN: a failed identification), and where the section
+        may have yielded beside a yielded section (rule 14, evidence :data:`YIELD_SPLIT`):
+        its DF is not identified, and its interval reaches past 1.
         """
-        return not self.yielded and math.isfinite(self.ductility_factor)
+        return (not self.yielded and math.isfinite(self.ductility_factor)
+                and not any(str(e).startswith(YIELD_SPLIT) for e in self.evidence))
 
     @property
     def damage_state(self) -> DamageState:
