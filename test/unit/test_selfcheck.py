@@ -15,6 +15,7 @@ from pier_monitor.core.identify.damage import (FIT_AT_LIMIT, MODEL_MISFIT_NOT_DA
                                                YIELD_OUT_OF_REACH, yield_out_of_reach_evidence,
                                                YIELD_TEST_SHORT, yield_test_evidence,
                                                YIELD_SPLIT, yield_split_evidence,
+                                               SECTION_UNIDENTIFIED, unidentified_evidence,
                                                IdentificationResult, build_sections,
                                                overall_state)
 from pier_monitor.core.identify.uncertainty import SectionUncertainty, Spread
@@ -525,6 +526,56 @@ def test_yield_split_evidence_needs_an_unmeasured_rotation_and_a_yielded_neighbo
                                                [False, False])] == [(), ()]
     with pytest.raises(InputDataError, match="expected 2 entries"):
         yield_split_evidence([3.0, 1.0], [True, False], [3.0], [False, False])
+
+
+def test_a_section_whose_k1_c_and_df_are_all_unidentified_is_never_damaged(cases, softer):
+    """Rule 15, as on the drawn sequences' tuning seed 620 (Table 1, accelerometers, second
+    shaking): section 4 called damaged at DF 3.22 [1.84, 3.86], its k1, c and DF all
+    flagged, against a true 0.52.  Under a model misfit rule 9 keeps it damaged (its interval
+    clears 1.5); rule 15 makes it suspicious, and a decision again keeps it so.  The base,
+    damaged with only its c flagged, stays damaged; with an unmeasured end level (and no
+    other rule speaking) the section keeps its state."""
+    window, truth, _ = cases[1]
+    _, misfit = softer
+    p = (0.0, 0.0, 1.0)
+    own = _result(window, truth, (3.0, 0.5, 0.5, 3.22), p_overall_state=p,
+                  family={"family": "takeda"})
+    sec = list(own.sections)
+    sec[0] = dataclasses.replace(sec[0], poorly_identified=("c",),
+                                 uncertainty=_base_uncertainty(Spread(3.0, 0.1, 2.7, 3.3), p))
+    sec[3] = dataclasses.replace(sec[3], poorly_identified=("k1", "k2", "c", "DF"),
+                                 uncertainty=_base_uncertainty(Spread(3.22, 0.6, 1.84, 3.86), p))
+    own = dataclasses.replace(own, sections=tuple(sec))
+    assert [s.state for s in own.sections] == ["damaged", "intact", "intact", "damaged"]
+    result = own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
+                               measured_levels=np.ones(4, dtype=bool))
+    assert [s.state for s in result.sections] == ["damaged", "intact", "intact", "suspicious"]
+    top = result.sections[3]
+    assert top.evidence[-1] == (f"{SECTION_UNIDENTIFIED}: its k1, c and DF are all poorly "
+                                "identified although both its end levels are measured: DF "
+                                "3.22 not identified")
+    assert ("DF not identified (its k1, c and DF are all poorly identified): not called "
+            "damaged on it") in top.reasons
+    assert top.uncertainty.p_state[2] == 0.0
+    again = IdentificationResult.from_dict(result.to_dict()).with_k1_baseline(
+        truth.k1, "design values")
+    assert again.sections[3].state == "suspicious"
+    # level 3 unmeasured (the section's lower end): the flags say where the sensors are
+    # (bilinear springs that fit, so that rule 11 does not speak)
+    kept = dataclasses.replace(own, family={"family": "bilinear"}).with_evidence(
+        np.zeros(4), [()] * 4, model_misfit(window, truth).as_dict(),
+        measured_levels=np.array([True, True, False, True]))
+    assert kept.sections[3].state == "damaged"
+    assert not any(e.startswith(SECTION_UNIDENTIFIED) for e in kept.sections[3].evidence)
+
+
+def test_unidentified_evidence_needs_all_three_flags_a_df_of_1_5_and_measured_ends():
+    lines = unidentified_evidence([3.2, 1.4, 3.2, 3.2],
+                                  [("k1", "c", "DF"), ("k1", "c", "DF"), ("k1", "DF"),
+                                   ("k1", "c", "DF")], [True, True, True, False])
+    assert lines[0][0].startswith(SECTION_UNIDENTIFIED) and lines[1:] == [(), (), ()]
+    with pytest.raises(InputDataError, match="expected 2 entries"):
+        unidentified_evidence([3.2, 1.0], [("k1",)], [True, True])
 
 
 def test_a_yield_test_just_short_gives_evidence_on_unyielded_springs_only():

@@ -122,6 +122,19 @@ applies with or without an ensemble, and only raises a state
     draws 620-639, both piers: 59 sections), the 20 beside a yielded section held those 6
     and 14 elastic ones at true DFs of 0.70-0.97; none of the 39 elsewhere had yielded
     (true DFs up to 0.98), so they keep "not yielded".
+15. a section both of whose end levels are measured, whose ``k1``, ``c`` and DF are all
+    poorly identified, is never damaged on a DF of 1.5 or more (:func:`unidentified_evidence`,
+    the evidence :data:`SECTION_UNIDENTIFIED`): nothing the data pin down of its spring
+    bears the call (rule 9 lets a DF interval clear of 1.5 make a section damaged under a
+    model misfit, however wide; with the section's stiffness and damping unidentified too,
+    that interval is the posterior of a model the data do not fix).  Over the benchmark
+    suites' full and accelerometer layouts, the default route's sections with a DF of 1.5
+    or more and those three flags were 19: 17 elastic (true DFs 0.16-1.00, all suspicious
+    but one) and 2 yielded (true DFs 1.64 and 3.16, both suspicious).  The one was found
+    on the drawn sequences' tuning seed 620 (Table 1, accelerometers, second shaking:
+    section 4 damaged at DF 3.22 [1.84, 3.86] against a true 0.52).  On the three-level layout the flags of a section with an
+    unmeasured end say where the sensors are, not what the data fix, and the rule does not
+    apply.
 
 A section's state probabilities (``uncertainty.p_state``, the members' shares) follow the
 self-check's evidence as its state does (:func:`_p_state_with_evidence`): the members never
@@ -174,6 +187,9 @@ __all__ = [
     "yield_test_evidence",
     "YIELD_SPLIT",
     "yield_split_evidence",
+    "SECTION_UNIDENTIFIED",
+    "unidentified_evidence",
+    "sections_ends_measured",
     "with_section_evidence",
     "with_k1_unresolved",
     "p_overall_with_section_evidence",
@@ -287,6 +303,10 @@ FIT_AT_LIMIT = "fit at a limit"
 #: neighbour's, under a model misfit, in a span where one of them yielded; its DF is not
 #: identified.
 SPLIT_UNMEASURED = "split not measured"
+
+#: The start of rule 15's evidence: a section with both end levels measured whose ``k1``,
+#: ``c`` and DF are all poorly identified; its DF is not identified.
+SECTION_UNIDENTIFIED = "section not identified"
 
 #: The start of rule 12's evidence: a section whose spring puts its yield rotation out of
 #: reach (beyond :data:`MAX_YIELD_ROTATION_RATIO` times the design's), or its neighbour where
@@ -413,10 +433,11 @@ def _is_model_misfit(model_misfit: dict[str, Any] | None) -> bool:
 def _evidence_says_unidentified(evidence: Sequence[str]) -> bool:
     """Whether ``evidence`` holds rule 8's line (:data:`BILINEAR_MISFIT`: the section's
     ``k1`` and DF are not identified), rule 10's (:data:`FIT_AT_LIMIT`: its DF is not),
-    rule 11's (:data:`SPLIT_UNMEASURED`: its DF is not) or rule 12's
-    (:data:`YIELD_OUT_OF_REACH`: its DF is not)."""
+    rule 11's (:data:`SPLIT_UNMEASURED`: its DF is not), rule 12's
+    (:data:`YIELD_OUT_OF_REACH`: its DF is not) or rule 15's (:data:`SECTION_UNIDENTIFIED`:
+    neither are its ``k1`` and ``c``)."""
     return any(e.startswith((BILINEAR_MISFIT, FIT_AT_LIMIT, SPLIT_UNMEASURED,
-                             YIELD_OUT_OF_REACH))
+                             YIELD_OUT_OF_REACH, SECTION_UNIDENTIFIED))
                for e in evidence)
 
 
@@ -651,7 +672,7 @@ def yield_split_evidence(ductility: Sequence[float] | np.ndarray,
     if y.shape != (n,) or ratio.shape != (n,) or disp.shape != (n,):
         raise InputDataError(f"yielded, passed yield and displacement levels: expected {n} "
                              f"entries, got shapes {y.shape}, {ratio.shape} and {disp.shape}")
-    measured = disp & np.r_[True, disp[:-1]]  # both end levels of section i (levels i, i + 1)
+    measured = sections_ends_measured(disp)
     out = list(none)
     for i in range(n):
         near = [j for j in (i - 1, i + 1) if 0 <= j < n and y[j]]
@@ -664,6 +685,49 @@ def yield_split_evidence(ductility: Sequence[float] | np.ndarray,
                    "accelerations hardly tell how the plastic rotation is split between "
                    f"them: its DF not identified (up to {bound:.2f})",), bound)
     return out
+
+
+def unidentified_evidence(ductility: Sequence[float] | np.ndarray,
+                          flags: Sequence[Sequence[str]],
+                          ends_measured: Sequence[bool] | np.ndarray
+                          ) -> list[tuple[str, ...]]:
+    """Rule 15's evidence per section: a line for each section whose DF is 1.5 or more,
+    whose ``k1``, ``c`` and DF are all in its ``flags`` (``poorly_identified``), and both of
+    whose end levels are measured; none otherwise.
+
+    Parameters
+    ----------
+    ductility : sequence of float, shape (N,)
+        The DF each section shows, from the base up.
+    flags : sequence of sequence of str, N of them
+        Each section's poorly identified quantities.
+    ends_measured : sequence of bool, shape (N,)
+        Whether both end levels of each section have a sensor of their motion
+        (:func:`sections_ends_measured`).
+
+    Raises
+    ------
+    InputDataError
+        If ``flags`` or ``ends_measured`` does not have one entry per DF.
+    """
+    df = np.asarray(ductility, dtype=float)
+    n = df.size
+    ends = np.asarray(ends_measured, dtype=bool)
+    if len(flags) != n or ends.shape != (n,):
+        raise InputDataError(f"flags and measured ends: expected {n} entries, got "
+                             f"{len(flags)} and shape {ends.shape}")
+    return [(f"{SECTION_UNIDENTIFIED}: its k1, c and DF are all poorly identified although "
+             f"both its end levels are measured: DF {df[i]:.2f} not identified",)
+            if ends[i] and df[i] >= DAMAGED_DF and {"k1", "c", "DF"} <= set(flags[i]) else ()
+            for i in range(n)]
+
+
+def sections_ends_measured(measured_levels: Sequence[bool] | np.ndarray) -> np.ndarray:
+    """Per section, shape (N,): whether both its end levels have a sensor (section ``i``
+    spans levels ``i - 1`` and ``i``; the foundation, level 0, always has), from whether each
+    level 1..N has one, shape (N,)."""
+    measured = np.asarray(measured_levels, dtype=bool)
+    return measured & np.r_[True, measured[:-1]]
 
 
 def _k1_unidentified(section: SectionResult) -> bool:
@@ -905,6 +969,8 @@ def _with_evidence(state: DamageState, reasons: tuple[str, ...], evidence: Seque
                                                                for e in evidence)
                else "its rotation is not told apart from its neighbours'"
                if any(e.startswith(SPLIT_UNMEASURED) for e in evidence)
+               else "its k1, c and DF are all poorly identified"
+               if any(e.startswith(SECTION_UNIDENTIFIED) for e in evidence)
                else "a neighbour's spring does not yield, its rotation may be this one's")
         reasons = (*reasons, f"DF not identified ({why}): not called damaged on it")
     return max(state, DamageState.SUSPICIOUS), reasons + evidence
@@ -1419,7 +1485,9 @@ class IdentificationResult:
         ``displacement_levels``, a section not yielded whose reconstructed rotation passes its
         yield rotation beside a yielded section gets rule 14's line
         (:func:`yield_split_evidence`), ``DF`` in its ``poorly_identified`` and its DF
-        interval up to that neighbour's DF.
+        interval up to that neighbour's DF.  A section at a DF of 1.5 or more with both end
+        levels measured whose ``k1``, ``c`` and DF are all flagged (by then) gets rule 15's
+        line (:func:`unidentified_evidence`): never damaged on that DF.
         The evidence the identification gave itself (rule 13, :func:`with_section_evidence`)
         stays, first, and is not applied again.
 
@@ -1436,7 +1504,8 @@ class IdentificationResult:
             Per section the quantities at a limit and the reasons
             (:func:`~pier_monitor.core.identify.checks.section_fit_limits`).
         measured_levels : sequence of bool, shape (N,), optional
-            Whether each level (1..N) has a sensor of its motion (rule 11; None: every level).
+            Whether each level (1..N) has a sensor of its motion (rules 11 and 15; None:
+            every level).
         displacement_levels : sequence of bool, shape (N,), optional
             Whether each level (1..N) has a displacement sensor (rule 14; None: no rule 14).
 
@@ -1470,6 +1539,11 @@ class IdentificationResult:
         apart = yield_split_evidence([x.ductility_factor for x in self.sections],
                                      [x.yielded for x in self.sections], passed,
                                      displacement_levels)
+        if measured_levels is not None and np.shape(measured_levels) != (n,):
+            raise InputDataError(f"measured levels: expected {n} entries, got shape "
+                                 f"{np.shape(measured_levels)}")
+        ends = sections_ends_measured(np.ones(n, dtype=bool) if measured_levels is None
+                                      else measured_levels)
         sections = []
         for s, e, ev, lim, sp, far, (sv, upto) in zip(self.sections, energy, evidence, limits,
                                                      split, reach, apart):
@@ -1494,6 +1568,9 @@ class IdentificationResult:
                 ev = (*ev, *(f"{FIT_AT_LIMIT}: {r}: its DF is not identified" for _, r in lim))
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified,
                                                           *(q for q, _ in lim), "DF"))
+            if is_diagnosis(s.damage_state):  # rule 15, on the flags of all the rules above
+                ev = (*ev, *unidentified_evidence([s.ductility_factor], [s.poorly_identified],
+                                                  [bool(ends[s.index])])[0])
             s = _raised_by(replace(s, energy_index=float(e), evidence=(*own, *ev)), ev, misfit)
             sections.append(s)
         sections = tuple(sections)
