@@ -72,6 +72,10 @@ TUNING = {
                     "yielded, DF flagged): found on rc_sequence_drawn tuning seeds 610-615 "
                     "and 620-625 (Table 1, accelerometers), checked on the heldout suite's "
                     "tuning draws 620-639 (accelerometers, both piers); no threshold tuned"),
+    "section_unidentified": ("rule 15 (a section with both end levels measured whose k1, c "
+                             "and DF are all flagged is never damaged on its DF): found on "
+                             "rc_sequence_drawn tuning seed 620 (Table 1, accelerometers); "
+                             "no threshold tuned"),
     "field_posterior_scaling": "coverage suite, seeds 100-109 (E-Defense, accel/sparse)",
     "field_member_yield_test": ("members' yield test weighed against the fit's chi-square: "
                                 "diagnosed and checked on heldout_case draws, tuning seeds "
