@@ -787,9 +787,9 @@ def _df_clear_of_damaged(uncertainty: SectionUncertainty | None) -> bool:
 def _p_state_with_evidence(uncertainty: SectionUncertainty | None, evidence: Sequence[str],
                            model_misfit: bool) -> SectionUncertainty | None:
     """The members' state probabilities with the self-check's evidence applied as the state
-    is: evidence moves the intact share to suspicious (rules 5-8, 10, 13); a DF the evidence
-    says is not identified (rules 8, 10), or one under a model misfit whose interval does
-    not clear 1.5 (rule 9), moves the damaged share to suspicious.  The members never saw
+    is: evidence moves the intact share to suspicious (rules 5-8, 10-15); a DF the evidence
+    says is not identified (rules 8, 10-12, 15), or one under a model misfit whose interval
+    does not clear 1.5 (rule 9), moves the damaged share to suspicious.  The members never saw
     the self-check: a section raised to suspicious by it showed "suspicious (P 0.00)"."""
     if uncertainty is None or uncertainty.members < 2 or not (evidence or model_misfit):
         return uncertainty
@@ -1529,10 +1529,10 @@ class IdentificationResult:
                  else split_unmeasured_evidence(
                      [x.ductility_factor for x in self.sections],
                      [x.yielded for x in self.sections], measured_levels))
+        fam = self.family or {}
         reach = yield_out_of_reach_evidence(
             [x.ductility_factor for x in self.sections], [x.yielded for x in self.sections],
-            (self.family or {}).get("yield_rotation_vs_design") if rc_family else None)
-        fam = self.family or {}
+            fam.get("yield_rotation_vs_design") if rc_family else None)
         passed = (np.asarray(fam["peak_rotation"], dtype=float)
                   / np.asarray(fam["idealised_yield_rotation"], dtype=float)
                   if rc_family and fam.get("peak_rotation") is not None else None)
