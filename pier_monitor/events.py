@@ -197,8 +197,8 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     """
     window_file = store.start_event(window)
     out_dir = store.event_dir(window.event_id)
-    baseline = store.baseline_for(window)
-    prior = None if baseline is None else store.rotation_peaks_before(window)
+    history = store.history_before(window)  # the pier's earlier results, read once
+    baseline, prior = history.baseline, history.rotation_peaks
     try:
         run = identify(window if prior is None else replace(window, prior_rotation_peaks=prior),
                        settings, callback=progress,
@@ -231,7 +231,7 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     reasons = [*reasons, *check.unreliable_reasons]
     result = run.result
     if baseline is not None and not reasons:  # an unreliable result's DF is no diagnosis
-        result = result.with_cumulative_ductility(baseline, store.peak_rotations_before(window))
+        result = result.with_cumulative_ductility(baseline, history.peak_rotations)
     run = replace(run, result=result.with_evidence(
         check.energy_index, evidence, misfit,
         fit_limits=section_fit_limits(checked, window, k1_too=own_fits),

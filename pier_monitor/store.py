@@ -42,9 +42,40 @@ from pier_monitor.core.ingest.window import MeasuredWindow, load_window, save_wi
 from pier_monitor.report._common import ensure_dir
 from pier_monitor.report.results import RESULT_JSON
 
-__all__ = ["ResultsStore", "PendingWindows", "WINDOW_NPZ", "FAILED_JSON"]
+__all__ = ["ResultsStore", "PierHistory", "PendingWindows", "WINDOW_NPZ", "FAILED_JSON"]
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class PierHistory:
+    """What a results store knows of a pier before a window
+    (:meth:`ResultsStore.history_before`).
+
+    Attributes
+    ----------
+    baseline : IdentificationResult or None
+        The window's baseline (:meth:`ResultsStore.baseline_for`).
+    peak_rotations : ndarray, shape (N,), or None
+        The largest spring rotation per section so far, rad
+        (:meth:`ResultsStore.peak_rotations_before`).
+    rotation_peaks : ndarray, shape (2, N), or None
+        The rotation history the springs start from, rad
+        (:meth:`ResultsStore.rotation_peaks_before`).
+    """
+
+    baseline: IdentificationResult | None
+    peak_rotations: np.ndarray | None
+    rotation_peaks: np.ndarray | None
+
+
+def _peak_rotations(earlier: list[IdentificationResult]) -> np.ndarray | None:
+    """The largest ``max_angle_rad`` per section over ``earlier``, rad (N,); None without
+    results."""
+    peaks = [[s.max_angle_rad for s in r.sections] for r in earlier]
+    if not peaks:
+        return None
+    return np.nanmax(np.array(peaks, dtype=float), axis=0)
 
 #: File names inside an event directory (besides those of ``write_results``).
 WINDOW_NPZ = "window.npz"
@@ -218,17 +249,17 @@ class ResultsStore:
         k1; None when there is none (compare with the design values).  A result skipped for
         its geometry or its values is named in a warning on this module's logger.
         """
-        earlier = [r for r in self.results(window.pier_id)
-                   if self.is_baseline(r) and r.window_start_ns < window.start_time_ns]
-        z = np.asarray(window.geometry.level_heights_m, dtype=float)
-        for r in earlier:
-            tops = np.array([s.z_top_m for s in r.sections], dtype=float)
-            if tops.shape == z[1:].shape and np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
-                return r
-            log.warning("%s: not a baseline of event %s: its sections end at %s m, the "
-                        "pier's now at %s m (the geometry changed)", self._result_name(r),
-                        window.event_id, tops.tolist(), z[1:].tolist())
-        return None
+        return self.history_before(window).baseline
+
+    def history_before(self, window: MeasuredWindow) -> PierHistory:
+        """What the store knows of ``window``'s pier before it, from one reading of its
+        results: the baseline (:meth:`baseline_for`), the peak rotations so far
+        (:meth:`peak_rotations_before`) and the rotation history its springs start from
+        (:meth:`rotation_peaks_before`)."""
+        earlier = self._earlier_results(window)
+        return PierHistory(baseline=earlier[0] if earlier else None,
+                           peak_rotations=_peak_rotations(earlier),
+                           rotation_peaks=self._rotation_peaks(earlier, window))
 
     def peak_rotations_before(self, window: MeasuredWindow) -> np.ndarray | None:
         """The largest spring rotation per section, rad (N,), over the reliable results of
@@ -237,14 +268,13 @@ class ResultsStore:
         peak so far of the cumulative DF
         (:meth:`~pier_monitor.core.identify.damage.IdentificationResult.with_cumulative_ductility`).
         """
-        peaks = [[s.max_angle_rad for s in r.sections] for r in self._earlier_results(window)]
-        if not peaks:
-            return None
-        return np.nanmax(np.array(peaks, dtype=float), axis=0)
+        return _peak_rotations(self._earlier_results(window))
 
     def _earlier_results(self, window: MeasuredWindow) -> list[IdentificationResult]:
         """The reliable results of ``window``'s pier whose windows started before it and
-        whose sections are those of ``window`` (the same heights), oldest window first."""
+        whose sections are those of ``window`` (the same heights), oldest window first.  A
+        result before the earliest of them skipped for its geometry (not a baseline) is
+        named in a warning on this module's logger."""
         z = np.asarray(window.geometry.level_heights_m, dtype=float)
         out = []
         for r in self.results(window.pier_id):
@@ -253,6 +283,10 @@ class ResultsStore:
             tops = np.array([s.z_top_m for s in r.sections], dtype=float)
             if tops.shape == z[1:].shape and np.allclose(tops, z[1:], rtol=1e-9, atol=1e-6):
                 out.append(r)
+            elif not out:
+                log.warning("%s: not a baseline of event %s: its sections end at %s m, the "
+                            "pier's now at %s m (the geometry changed)", self._result_name(r),
+                            window.event_id, tops.tolist(), z[1:].tolist())
         return out
 
     def rotation_peaks_before(self, window: MeasuredWindow) -> np.ndarray | None:
@@ -268,7 +302,11 @@ class ResultsStore:
         (:func:`~pier_monitor.core.identify.damage.rotation_peaks_after`).  None where there
         is no such result or it does not hold the envelope of every section.
         """
-        earlier = self._earlier_results(window)
+        return self._rotation_peaks(self._earlier_results(window), window)
+
+    def _rotation_peaks(self, earlier: list[IdentificationResult], window: MeasuredWindow
+                        ) -> np.ndarray | None:
+        """:meth:`rotation_peaks_before` of the results :meth:`_earlier_results` gave."""
         latest = earlier[-1] if earlier else None
         if latest is None or any(s.rotation_peaks_after_rad is None for s in latest.sections):
             return None
