@@ -957,6 +957,10 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
 #: every choice and only scored.
 RC_SEQUENCE_TUNING_SEEDS = (610, 611, 612, 613, 614, 615, 620, 621, 622, 623, 624, 625)
 RC_SEQUENCE_HELD_OUT_SEEDS = (640, 641, 642, 643, 644, 645)
+#: A second held-out set, drawn after rules 14 and 15 (``damage.YIELD_SPLIT``,
+#: ``damage.SECTION_UNIDENTIFIED``), which had been measured on 640-645; first scored before
+#: any later change (suite ``rc_sequence_drawn_fresh``).
+RC_SEQUENCE_FRESH_SEEDS = (660, 661, 662, 663, 664, 665, 666, 667, 668, 669, 670, 671)
 #: The RC acceptance's bound on a stiffness change, percentage points of the true change of
 #: the small-amplitude stiffness.
 K_CHANGE_TARGET_POINTS = 10.0
@@ -1070,8 +1074,9 @@ def summarize_rc_sequence(runs: list[dict[str, Any]]) -> dict[str, Any]:
             errs = d.pop("yielded_err_pct")
             d["yielded_err_pct_mean"] = float(np.mean(errs)) if errs else None
     return {"case": "rc_sequence_drawn_summary",
-            "tuning_seeds": list(RC_SEQUENCE_TUNING_SEEDS),
-            "held_out_seeds": list(RC_SEQUENCE_HELD_OUT_SEEDS),
+            "tuning_seeds": sorted({r["seed"] for r in runs if r.get("split") == "tuning"}),
+            "held_out_seeds": sorted({r["seed"] for r in runs
+                                      if r.get("split") == "held_out"}),
             "skipped": [{"seed": r["seed"], "pier": r["pier"], "why": r["skipped"]}
                         for r in runs if "skipped" in r],
             "groups": groups, "wall_s": float(sum(r.get("wall_s", 0.0) for r in runs
@@ -1113,6 +1118,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "rc_sequence": lambda: bench_rc_sequence(),
     "rc_sequence_drawn": lambda: bench_rc_sequence_drawn(),
     "rc_sequence_drawn_tuning": lambda: bench_rc_sequence_drawn(RC_SEQUENCE_TUNING_SEEDS),
+    "rc_sequence_drawn_fresh": lambda: bench_rc_sequence_drawn(RC_SEQUENCE_FRESH_SEEDS),
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
     "heldout_pinn": lambda: heldout_pinn_suite(),
