@@ -232,11 +232,12 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     result = run.result
     if baseline is not None and not reasons:  # an unreliable result's DF is no diagnosis
         result = result.with_cumulative_ductility(baseline, history.peak_rotations)
-    run = replace(run, result=result.with_evidence(
+    result = result.with_evidence(
         check.energy_index, evidence, misfit,
         fit_limits=section_fit_limits(checked, window, k1_too=own_fits),
         measured_levels=window.coverage.motion,
-        displacement_levels=window.coverage.displacement))
+        displacement_levels=window.coverage.displacement)
+    run = replace(run, result=result.with_history_identified(window.coverage.displacement))
     written = write_results(run, window, out_dir, baseline=baseline, figures=figures,
                             check_reasons=reasons, members=run.members)
     return EventOutcome(window=window, result=written.result, out_dir=out_dir,

@@ -300,7 +300,9 @@ class ResultsStore:
         rule of :meth:`peak_rotations_before`): each event's envelope carries the one it
         started from, less the residual rotation it left
         (:func:`~pier_monitor.core.identify.damage.rotation_peaks_after`).  None where there
-        is no such result or it does not hold the envelope of every section.
+        is no such result or it holds the envelope of no section; a section without one
+        (:meth:`~pier_monitor.core.identify.damage.IdentificationResult.with_history_identified`)
+        starts virgin (zeros).
         """
         return self._rotation_peaks(self._earlier_results(window), window)
 
@@ -308,9 +310,13 @@ class ResultsStore:
                         ) -> np.ndarray | None:
         """:meth:`rotation_peaks_before` of the results :meth:`_earlier_results` gave."""
         latest = earlier[-1] if earlier else None
-        if latest is None or any(s.rotation_peaks_after_rad is None for s in latest.sections):
+        if latest is None or all(s.rotation_peaks_after_rad is None for s in latest.sections):
             return None
-        env = np.array([s.rotation_peaks_after_rad for s in latest.sections], dtype=float).T
+        # a section without one (a reconstructed rotation whose DF was not identified) starts
+        # virgin
+        env = np.array([(0.0, 0.0) if s.rotation_peaks_after_rad is None
+                        else s.rotation_peaks_after_rad for s in latest.sections],
+                       dtype=float).T
         if not (np.all(np.isfinite(env)) and np.all(env[0] >= 0) and np.all(env[1] <= 0)):
             log.warning("%s: its rotation peaks %s are not (θ+ >= 0, θ- <= 0): no history "
                         "before %s", self._result_name(latest), env.tolist(), window.event_id)

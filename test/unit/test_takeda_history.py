@@ -149,10 +149,13 @@ def base_window() -> MeasuredWindow:
 
 
 def _stored(store: ResultsStore, base: MeasuredWindow, event_id: str, start_s: float,
-            peaks: list[tuple[float, float]] | None, reliable: bool = True
+            peaks: list[tuple[float, float] | None] | None, reliable: bool = True,
+            flagged: tuple[int, ...] = (), displacement_levels: np.ndarray | None = None
             ) -> MeasuredWindow:
     """``base`` as event ``event_id`` of pier7 with a result whose sections hold ``peaks``
-    (their ``rotation_peaks_after_rad``), reliable or not."""
+    (their ``rotation_peaks_after_rad``), reliable or not, the DF of the sections
+    ``flagged`` poorly identified; with ``displacement_levels``, stored as
+    :meth:`~IdentificationResult.with_history_identified` leaves it."""
     w = replace(base, pier_id="pier7", event_id=event_id,
                 start_time_ns=T0 + int(start_s * 1e9))
     store.start_event(w)
@@ -162,14 +165,18 @@ def _stored(store: ResultsStore, base: MeasuredWindow, event_id: str, start_s: f
         c=2e7, yield_angle_rad=2.5e-3, max_angle_rad=1e-3, ductility_factor=0.4,
         state="intact", yielded=False, k2_identifiable=False, fy_identifiable=False,
         family="bilinear", k_small_after=2e9,
-        rotation_peaks_after_rad=None if peaks is None else peaks[i])
+        rotation_peaks_after_rad=None if peaks is None else peaks[i],
+        poorly_identified=("DF",) if i in flagged else ())
         for i in range(w.n_levels))
-    IdentificationResult(
+    result = IdentificationResult(
         pier_id=w.pier_id, event_id=w.event_id, sections=sections, overall_state="intact",
         window_start_s=0.0, window_duration_s=w.duration_s, epochs=0, final_loss=math.nan,
         wall_time_s=1.0, device="cpu", window_start_ns=w.start_time_ns,
         unreliable_reasons=() if reliable else ("a sensor's misfit",),
-    ).save_json(store.event_dir(w.event_id) / "result.json")
+    )
+    if displacement_levels is not None:
+        result = result.with_history_identified(displacement_levels)
+    result.save_json(store.event_dir(w.event_id) / "result.json")
     return w
 
 
@@ -201,6 +208,39 @@ def test_the_store_carries_the_latest_reliable_events_peaks_into_the_next_window
     assert replace(later, prior_rotation_peaks=env).prior_rotation_peaks.shape == (2, n)
     with pytest.raises(InputDataError, match="prior_rotation_peaks"):
         replace(later, prior_rotation_peaks=-np.abs(env))
+
+
+def test_a_reconstructed_rotation_whose_df_is_not_identified_is_no_history(base_window,
+                                                                         tmp_path):
+    """A section whose rotation was reconstructed (an end level without a displacement
+    sensor) and whose DF is poorly identified leaves no rotation history; the next window
+    starts that spring virgin (zeros) and the others from theirs.  A measured rotation is
+    carried whatever its DF's flag."""
+    store = ResultsStore(tmp_path / "results")
+    n = base_window.n_levels
+    later = replace(base_window, pier_id="pier7", event_id="ev9",
+                    start_time_ns=T0 + int(500e9))
+    peaks = [(1e-3 * (i + 1), -5e-4 * (i + 1)) for i in range(n)]
+    _stored(store, base_window, "ev1", 10.0, peaks, flagged=(0, 2),
+            displacement_levels=np.ones(n, dtype=bool))
+    np.testing.assert_allclose(store.rotation_peaks_before(later), np.array(peaks).T)
+    # accelerometers only (no displacement sensor): sections 1 and 3 start virgin
+    _stored(store, base_window, "ev2", 20.0, peaks, flagged=(0, 2),
+            displacement_levels=np.zeros(n, dtype=bool))
+    back = [r for r in store.results("pier7") if r.event_id == "ev2"][0]
+    assert [s.rotation_peaks_after_rad is None for s in back.sections][:3] == [True, False,
+                                                                              True]
+    want = np.array(peaks).T
+    want[:, [0, 2]] = 0.0
+    np.testing.assert_allclose(store.rotation_peaks_before(later), want)
+    # a wire at level 1 measures section 1's rotation: its history stays
+    disp = np.zeros(n, dtype=bool)
+    disp[0] = True
+    _stored(store, base_window, "ev3", 30.0, peaks, flagged=(0, 2), displacement_levels=disp)
+    want[:, 0] = peaks[0]
+    np.testing.assert_allclose(store.rotation_peaks_before(later), want)
+    with pytest.raises(InputDataError, match="displacement levels"):
+        back.with_history_identified(np.ones(n + 1, dtype=bool))
 
 
 def test_the_field_reconstructions_spring_starts_from_the_same_history():

@@ -358,9 +358,10 @@ class FamilyChoice:
         :data:`~pier_monitor.core.identify.damage.MAX_YIELD_ROTATION_RATIO` is a spring whose
         yield the fit put out of reach (rule 12 of :mod:`~pier_monitor.core.identify.damage`).
     history_known : bool
-        The pier's measured history was given (the sections' ``prior_peaks`` say which
-        section's Takeda started from it); False: every spring started virgin, whatever
-        came before.
+        The pier's history was given and kept (the sections' ``prior_peaks`` say which
+        section's Takeda started from it; the field reconstruction keeps it where it
+        reproduces the data better than virgin springs); False: every spring started
+        virgin, whatever came before.
     """
 
     family: str

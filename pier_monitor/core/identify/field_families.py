@@ -265,7 +265,8 @@ def _tak_array(x: np.ndarray, k_ref: float, f_ref: float) -> np.ndarray:
 class _TakedaField:
     """The field problem with Takeda springs: parameters (N, 8), the gains ``eps``."""
 
-    def __init__(self, pb: _FieldProblem, window: MeasuredWindow) -> None:
+    def __init__(self, pb: _FieldProblem, window: MeasuredWindow,
+                 virgin: bool = False) -> None:
         self.pb = pb
         design = window.design
         self.k_ref = np.asarray(design.k1, dtype=float)
@@ -288,7 +289,7 @@ class _TakedaField:
         self.n_eff = max(n_data * pb.weight ** 2 + pb.t_len * pb.disp.size * pb.disp_weight ** 2,
                          2.0)
         # the springs' peaks before the window (the pier's history), rad, (2, N)
-        self.prior = (np.zeros((2, n)) if window.prior_rotation_peaks is None
+        self.prior = (np.zeros((2, n)) if window.prior_rotation_peaks is None or virgin
                       else np.asarray(window.prior_rotation_peaks, dtype=float))
         self.prior_peak = np.maximum(self.prior[0], -self.prior[1])
 
@@ -540,19 +541,24 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
             jac[:, col] = (r - r0) / h
         return jac
 
-    costs = [float(np.sum(res_joint(z) ** 2)) for z in starts]
     scales = np.r_[np.tile([0.05, 0.1, 0.02, 0.02, 0.005, 0.05, 0.05, 0.1], n),
                    np.full(n_eps, 0.2 * pb.gain_sd)]
-    # the equation-error start (index 0 where there is one) and the best of the others
-    first = 1 if ee is not None else 0
-    ranked = [first + int(k) for k in np.argsort(costs[first:])]
-    refined = list(range(first)) + ranked[:REFINED_STARTS]
     # the BIC the Takeda must beat (the bilinear's), and the chi-square it must come within
     log_neff = float(np.log(tf.n_eff))
     p_bil = int(np.sum(np.where(fit.yielded, 5, 2)))
     p_tak = N_PARAMS["takeda"] * n
     bic_b = chi2_b + p_bil * log_neff
-    order = refined + ranked[REFINED_STARTS:]
+    # the equation-error start (index 0 where there is one) and the best of the others
+    first = 1 if ee is not None else 0
+    refined: list[int] = []
+    order: list[int] = []
+
+    def rank_starts() -> None:
+        # the starts' order for the springs of ``tf`` (from its history or virgin)
+        costs = [float(np.sum(res_joint(z) ** 2)) for z in starts]
+        ranked = [first + int(k) for k in np.argsort(costs[first:])]
+        refined[:] = list(range(first)) + ranked[:REFINED_STARTS]
+        order[:] = refined + ranked[REFINED_STARTS:]
 
     def refine(hi_b: np.ndarray):
         sol = None
@@ -574,24 +580,44 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     def yield_rotation_vs_design(qq: np.ndarray) -> np.ndarray:
         return np.array([tf.params(qq, i).theta_y for i in range(n)]) / theta_y_design
 
-    sol = refine(hi_f)
-    # a spring whose yield the fit put out of reach (rule 12 of the damage module): the starts
-    # again with its yield moment bounded, the refit kept where it reproduces the data better
-    far = np.flatnonzero(yield_rotation_vs_design(unpack(sol.x)[0])
-                         > MAX_YIELD_ROTATION_RATIO).tolist()
-    refit = ""
-    if far:
-        hi_cap = hi_f.copy()
-        hi_cap[[i * _NT + 2 for i in far]] = np.log(OUT_OF_REACH_MY_CAP)
-        capped = refine(hi_cap)
-        chi2_1, chi2_2 = tf.chi2(sol.fun), tf.chi2(capped.fun)
-        secs = ", ".join(str(i + 1) for i in far)
-        refit = (f"; the yield of section(s) {secs} was out of reach: refitted with the yield "
-                 f"moment at most {OUT_OF_REACH_MY_CAP:g} times the largest moment carried, "
-                 f"chi-square {chi2_1:.1f} -> {chi2_2:.1f}, "
-                 + ("kept" if chi2_2 < chi2_1 else "not kept"))
-        if chi2_2 < chi2_1:
-            sol = capped
+    def reconstruct():
+        # the reconstruction with the springs of ``tf``: the refined starts, and the refit of a
+        # spring whose yield the fit put out of reach (rule 12 of the damage module): the
+        # starts again with its yield moment bounded, kept where it reproduces the data better
+        last.clear()
+        rank_starts()
+        sol = refine(hi_f)
+        far = np.flatnonzero(yield_rotation_vs_design(unpack(sol.x)[0])
+                             > MAX_YIELD_ROTATION_RATIO).tolist()
+        refit = ""
+        if far:
+            hi_cap = hi_f.copy()
+            hi_cap[[i * _NT + 2 for i in far]] = np.log(OUT_OF_REACH_MY_CAP)
+            capped = refine(hi_cap)
+            chi2_1, chi2_2 = tf.chi2(sol.fun), tf.chi2(capped.fun)
+            secs = ", ".join(str(i + 1) for i in far)
+            refit = (f"; the yield of section(s) {secs} was out of reach: refitted with the "
+                     f"yield moment at most {OUT_OF_REACH_MY_CAP:g} times the largest moment "
+                     f"carried, chi-square {chi2_1:.1f} -> {chi2_2:.1f}, "
+                     + ("kept" if chi2_2 < chi2_1 else "not kept"))
+            if chi2_2 < chi2_1:
+                sol = capped
+        return sol, refit
+
+    sol, refit = reconstruct()
+    if window.prior_rotation_peaks is not None:
+        # the springs carried the pier's history in; a virgin start too, and the one that
+        # reproduces the data better is kept (the history may be a reconstruction's)
+        with_history, chi2_h = (tf, sol, refit), tf.chi2(sol.fun)
+        tf = _TakedaField(pb, window, virgin=True)
+        sol, refit = reconstruct()
+        chi2_v = tf.chi2(sol.fun)
+        if chi2_h <= chi2_v:
+            tf, sol, refit = with_history
+        refit += (f"; started from the pier's history: chi-square {chi2_h:.1f}, from virgin "
+                  f"springs {chi2_v:.1f}, "
+                  + ("the history kept" if chi2_h <= chi2_v else "virgin springs kept"))
+        last.clear()
     q, eps = unpack(sol.x.copy())
     g = pb.moments(eps)
     theta, moment = tf.angles(q, g)
@@ -695,7 +721,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                                          else FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS),
                           yield_rotation_vs_design=(None if family == "bilinear"
                                                     else yield_rotation_vs_design(q)),
-                          history_known=window.prior_rotation_peaks is not None)
+                          history_known=bool(np.any(tf.prior_peak > 0)))
     return choice, th_out, mo_out
 
 

@@ -912,8 +912,11 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     if out.section_evidence and not rc_family:  # the bilinear springs' own tests (rule 13)
         sections = with_section_evidence(sections, out.section_evidence)
         p_overall = p_overall_with_section_evidence(p_overall, sections)
-    measured = window.coverage is None or window.coverage.is_full
-    if measured and np.all(np.isfinite(out.reproduced.theta)):  # the next event starts there
+    # the next event starts there: rotations measured, or reconstructed from an accelerometer
+    # at every level (the field route then also tries virgin springs and keeps the better)
+    measured = (window.coverage is None or window.coverage.is_full
+                or bool(np.all(window.coverage.acceleration)))
+    if measured and np.all(np.isfinite(out.reproduced.theta)):
         after = rotation_peaks_after(out.reproduced.theta, window.dt,
                                      window.prior_rotation_peaks)
         sections = tuple(replace(s, rotation_peaks_after_rad=(float(after[0, i]),
