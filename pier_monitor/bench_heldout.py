@@ -76,6 +76,14 @@ TUNING = {
                              "and DF are all flagged is never damaged on its DF): found on "
                              "rc_sequence_drawn tuning seed 620 (Table 1, accelerometers); "
                              "no threshold tuned"),
+    "yield_above_elastic": ("rule 16 (a section yielded above one reported not yielded is "
+                            "never damaged on its DF, under a model misfit or an RC "
+                            "family): found on rc_sequence_drawn_fresh seeds 663 and 666 "
+                            "(Table 1, full layout); no threshold tuned"),
+    "reconstructed_history": ("the history reconstructed from accelerations carried where the "
+                              "section's DF was identified, kept where it fits better than "
+                              "virgin springs: rc_sequence_drawn tuning seeds 610-615 and "
+                              "620-625 (accelerometers); nothing tuned"),
     "field_posterior_scaling": "coverage suite, seeds 100-109 (E-Defense, accel/sparse)",
     "field_member_yield_test": ("members' yield test weighed against the fit's chi-square: "
                                 "diagnosed and checked on heldout_case draws, tuning seeds "

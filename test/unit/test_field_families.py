@@ -4,6 +4,9 @@ reconstruction over the equation-error fit of a fully measured window."""
 
 from __future__ import annotations
 
+import re
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -219,3 +222,29 @@ def test_auto_keeps_the_equation_error_fit_where_the_reconstruction_misfits_too(
     window, _, _, _, _ = heldout_case("table1", "full", 633, "bilinear")
     result = identify(window, IdentifySettings(members=1, seed=633)).result
     assert "chosen over the equation-error fit" in result.message
+
+
+def test_a_history_that_does_not_fit_is_dropped_and_an_accelerometer_layout_leaves_one():
+    """The field reconstruction given a history (the springs' peaks before the window) also
+    starts from virgin springs and keeps the one that reproduces the data better: a history
+    at 20 times every section's design yield rotation, which this window (its first
+    shaking) never had, reproduces it far worse and is dropped, the base's DF as without
+    it.  With an accelerometer at every level the result leaves its reconstructed rotation
+    history for the next event."""
+    syn = field_case_recording("edefense", "accel", False, "strong", 0, hysteresis="takeda")
+    window, _, _ = _field_window(syn, "edefense/accel/strong/0/takeda")
+    truth = syn.truth.runs[0].rc
+    far = 20.0 * window.design.yield_angles
+    run = identify(replace(window, prior_rotation_peaks=np.stack([far, -far])))
+    family = run.result.family
+    assert family["family"] == "takeda" and not family["history_known"]
+    found = re.search(r"started from the pier's history: chi-square ([0-9.]+), from virgin "
+                      r"springs ([0-9.]+), virgin springs kept", family["reason"])
+    assert found is not None, family["reason"]
+    assert float(found[1]) > 1.5 * float(found[2])
+    assert all(sec["prior_peaks"] == [0.0, 0.0] for sec in family["sections"])
+    base = run.result.sections[0]
+    assert base.ductility_factor == pytest.approx(truth.ductility_factor[0], rel=0.10)
+    peaks = np.array([s.rotation_peaks_after_rad for s in run.result.sections])
+    assert peaks.shape == (4, 2) and np.all(peaks[:, 0] > 0) and np.all(peaks[:, 1] < 0)
+    assert peaks[0, 0] > window.design.yield_angles[0]  # the base went past yield
