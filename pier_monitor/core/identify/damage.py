@@ -1076,12 +1076,15 @@ class SectionResult:
     negative spring rotation the section has reached, this event's and those it started
     from, less the residual rotation this event left (:func:`rotation_peaks_after`): what
     the next event's modified-Takeda spring starts from
-    (:meth:`~pier_monitor.store.ResultsStore.rotation_peaks_before`).  Only where the
-    rotations were measured (displacements at every level); None otherwise: a history
-    reconstructed from accelerations put the Table 1 pier's plastic rotation in the wrong
-    one of its two lowest sections, and its next event's DFs went wrong with it (tuning
-    sequences, README "Two shakings").  ``history_known``: the family's spring (a
-    modified Takeda) started from the pier's measured history, not from a virgin spring;
+    (:meth:`~pier_monitor.store.ResultsStore.rotation_peaks_before`).  Where the
+    rotations were measured (displacements at every level), or reconstructed from an
+    accelerometer at every level; None otherwise, and None for a reconstructed rotation whose
+    DF is poorly identified (:meth:`IdentificationResult.with_history_identified`): carried
+    without that, a reconstructed history put the Table 1 pier's plastic rotation in the
+    wrong one of its two lowest sections (tuning sequences, README "The pier's history
+    carried into the next event").  ``history_known``: the family's spring (a modified
+    Takeda) started from the pier's history (kept where it fitted better than a virgin
+    spring), not from a virgin spring;
     a change against an earlier event of one that did not carries
     :data:`VIRGIN_START_STIFFNESS` (:meth:`rebased`).
     """
