@@ -212,6 +212,19 @@ def _base_uncertainty(df: Spread, p_state: tuple[float, float, float]) -> Sectio
                               ductility_factor=df, p_yielded=1.0, p_state=p_state, members=16)
 
 
+def _with_intervals(result: IdentificationResult, p_state: tuple[float, float, float],
+                    intervals: dict[int, Spread],
+                    flags: dict[int, tuple[str, ...]] | None = None) -> IdentificationResult:
+    """``result`` whose sections ``i`` in ``intervals`` carry an ensemble's uncertainty with
+    that DF interval (:func:`_base_uncertainty`) and, where ``flags`` has them, those
+    quantities poorly identified."""
+    flags = flags or {}
+    return dataclasses.replace(result, sections=tuple(
+        dataclasses.replace(s, uncertainty=_base_uncertainty(intervals[s.index], p_state),
+                            poorly_identified=flags.get(s.index, s.poorly_identified))
+        if s.index in intervals else s for s in result.sections))
+
+
 @pytest.mark.parametrize("df_interval, members, state", [
     ((1.55, 2.9), 16, "damaged"),      # clear of 1.5: the damaged call stands
     ((1.34, 2.07), 16, "suspicious"),  # seed 301's case: reaches below 1.5
@@ -337,10 +350,8 @@ def test_under_a_model_misfit_sections_no_sensor_tells_apart_share_their_damage(
     p = (0.0, 0.0, 1.0)
     own = _result(window, truth, (3.0, 1.8, 0.5, 1.3), family={"family": "takeda"},
                   p_overall_state=p)
-    sec = list(own.sections)
-    for i, df in ((0, Spread(3.0, 0.1, 2.85, 3.15)), (1, Spread(1.8, 0.1, 1.62, 1.98))):
-        sec[i] = dataclasses.replace(sec[i], uncertainty=_base_uncertainty(df, p))
-    own = dataclasses.replace(own, sections=tuple(sec))
+    own = _with_intervals(own, p, {0: Spread(3.0, 0.1, 2.85, 3.15),
+                                   1: Spread(1.8, 0.1, 1.62, 1.98)})
     assert [s.state for s in own.sections] == ["damaged", "damaged", "intact", "suspicious"]
     three_levels = np.array([False, True, False, True])
     result = own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
@@ -411,10 +422,8 @@ def test_a_spring_whose_yield_is_out_of_reach_leaves_its_and_its_neighbours_df_u
     own = _result(window, truth, (3.0, 0.02, 2.55, 0.5), p_overall_state=p,
                   family={"family": "takeda",
                           "yield_rotation_vs_design": [1.1, 100.0, 0.9, 1.0]})
-    sec = list(own.sections)
-    for i, df in ((0, Spread(3.0, 0.1, 2.7, 3.3)), (2, Spread(2.55, 0.1, 1.79, 3.19))):
-        sec[i] = dataclasses.replace(sec[i], uncertainty=_base_uncertainty(df, p))
-    own = dataclasses.replace(own, sections=tuple(sec))
+    own = _with_intervals(own, p, {0: Spread(3.0, 0.1, 2.7, 3.3),
+                                   2: Spread(2.55, 0.1, 1.79, 3.19)})
     assert [s.state for s in own.sections] == ["damaged", "intact", "damaged", "intact"]
     clean = model_misfit(window, truth).as_dict()
     result = own.with_evidence(np.zeros(4), [()] * 4, clean)
@@ -549,12 +558,9 @@ def test_a_section_whose_k1_c_and_df_are_all_unidentified_is_never_damaged(cases
     p = (0.0, 0.0, 1.0)
     own = _result(window, truth, (3.0, 0.5, 0.5, 3.22), p_overall_state=p,
                   family={"family": "takeda"})
-    sec = list(own.sections)
-    sec[0] = dataclasses.replace(sec[0], poorly_identified=("c",),
-                                 uncertainty=_base_uncertainty(Spread(3.0, 0.1, 2.7, 3.3), p))
-    sec[3] = dataclasses.replace(sec[3], poorly_identified=("k1", "k2", "c", "DF"),
-                                 uncertainty=_base_uncertainty(Spread(3.22, 0.6, 1.84, 3.86), p))
-    own = dataclasses.replace(own, sections=tuple(sec))
+    own = _with_intervals(own, p, {0: Spread(3.0, 0.1, 2.7, 3.3),
+                                   3: Spread(3.22, 0.6, 1.84, 3.86)},
+                          {0: ("c",), 3: ("k1", "k2", "c", "DF")})
     assert [s.state for s in own.sections] == ["damaged", "intact", "intact", "damaged"]
     result = own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
                                measured_levels=np.ones(4, dtype=bool))
@@ -600,12 +606,9 @@ def test_a_section_yielded_above_one_that_did_not_is_never_damaged(cases, softer
     p = (0.0, 0.0, 1.0)
     own = _result(window, truth, (8.2, 4.2, 0.9, 3.77), p_overall_state=p,
                   family={"family": "takeda"})
-    sec = list(own.sections)
-    for i, df in ((0, Spread(8.2, 0.5, 7.2, 9.2)), (1, Spread(4.2, 0.3, 3.7, 4.8))):
-        sec[i] = dataclasses.replace(sec[i], uncertainty=_base_uncertainty(df, p))
-    sec[3] = dataclasses.replace(sec[3], poorly_identified=("k1", "k2", "fy", "DF"),
-                                 uncertainty=_base_uncertainty(Spread(3.77, 0.8, 1.99, 4.89), p))
-    own = dataclasses.replace(own, sections=tuple(sec))
+    own = _with_intervals(own, p, {0: Spread(8.2, 0.5, 7.2, 9.2), 1: Spread(4.2, 0.3, 3.7, 4.8),
+                                   3: Spread(3.77, 0.8, 1.99, 4.89)},
+                          {3: ("k1", "k2", "fy", "DF")})
     assert [s.state for s in own.sections] == ["damaged", "damaged", "intact", "damaged"]
     result = own.with_evidence(np.zeros(4), [()] * 4, misfit.as_dict(),
                                measured_levels=np.ones(4, dtype=bool))

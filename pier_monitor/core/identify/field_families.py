@@ -550,20 +550,18 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     bic_b = chi2_b + p_bil * log_neff
     # the equation-error start (index 0 where there is one) and the best of the others
     first = 1 if ee is not None else 0
-    refined: list[int] = []
-    order: list[int] = []
 
-    def rank_starts() -> None:
-        # the starts' order for the springs of ``tf`` (from its history or virgin)
+    def ranked_starts() -> tuple[int, list[int]]:
+        # how many starts are refined, and the starts' order, for the springs of ``tf``
+        # (from its history or virgin)
         costs = [float(np.sum(res_joint(z) ** 2)) for z in starts]
         ranked = [first + int(k) for k in np.argsort(costs[first:])]
-        refined[:] = list(range(first)) + ranked[:REFINED_STARTS]
-        order[:] = refined + ranked[REFINED_STARTS:]
+        return first + len(ranked[:REFINED_STARTS]), list(range(first)) + ranked
 
-    def refine(hi_b: np.ndarray):
+    def refine(hi_b: np.ndarray, n_refined: int, order: list[int]):
         sol = None
         for num, k in enumerate(order):
-            if num >= len(refined):
+            if num >= n_refined:
                 chi2 = tf.chi2(sol.fun)
                 if chi2 <= MAX_CHI2_PER_NEFF * tf.n_eff or chi2 + p_tak * log_neff >= bic_b:
                     break  # decided (see REFINED_STARTS)
@@ -585,15 +583,15 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         # spring whose yield the fit put out of reach (rule 12 of the damage module): the
         # starts again with its yield moment bounded, kept where it reproduces the data better
         last.clear()
-        rank_starts()
-        sol = refine(hi_f)
+        ranking = ranked_starts()
+        sol = refine(hi_f, *ranking)
         far = np.flatnonzero(yield_rotation_vs_design(unpack(sol.x)[0])
                              > MAX_YIELD_ROTATION_RATIO).tolist()
         refit = ""
         if far:
             hi_cap = hi_f.copy()
             hi_cap[[i * _NT + 2 for i in far]] = np.log(OUT_OF_REACH_MY_CAP)
-            capped = refine(hi_cap)
+            capped = refine(hi_cap, *ranking)
             chi2_1, chi2_2 = tf.chi2(sol.fun), tf.chi2(capped.fun)
             secs = ", ".join(str(i + 1) for i in far)
             refit = (f"; the yield of section(s) {secs} was out of reach: refitted with the "
@@ -605,7 +603,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         return sol, refit
 
     sol, refit = reconstruct()
-    if window.prior_rotation_peaks is not None:
+    if np.any(tf.prior_peak > 0):
         # the springs carried the pier's history in; a virgin start too, and the one that
         # reproduces the data better is kept (the history may be a reconstruction's)
         with_history, chi2_h = (tf, sol, refit), tf.chi2(sol.fun)

@@ -914,8 +914,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         p_overall = p_overall_with_section_evidence(p_overall, sections)
     # the next event starts there: rotations measured, or reconstructed from an accelerometer
     # at every level (the field route then also tries virgin springs and keeps the better)
-    measured = (window.coverage is None or window.coverage.is_full
-                or bool(np.all(window.coverage.acceleration)))
+    measured = window.coverage is None or bool(np.all(window.coverage.acceleration))
     if measured and np.all(np.isfinite(out.reproduced.theta)):
         after = rotation_peaks_after(out.reproduced.theta, window.dt,
                                      window.prior_rotation_peaks)
