@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.identify.damage import (IdentificationResult, SectionResult,
+from pier_monitor.core.identify.damage import (RC_STIFFNESS_RESOLUTION, IdentificationResult,
+                                               SectionResult,
                                                rotation_peaks_after)
 from pier_monitor.core.identify.equation_error import SpringFit
 from pier_monitor.core.identify.families import fit_families, takeda_draws
@@ -297,7 +298,8 @@ def test_a_change_from_a_virgin_start_reaches_higher():
     """A Takeda section's stiffness change against an earlier event, where its spring
     started virgin (the history not measured), has its interval's upper end widened by
     VIRGIN_START_STIFFNESS in quadrature; its lower end and a change of a section that
-    started from the measured history stay as the draws give them."""
+    started from the measured history are the draws' with the family's resolution
+    (RC_STIFFNESS_RESOLUTION for each event) alone."""
     spread = Spread(7e8, 1e7, 6.9e8, 7.1e8)  # ±1.43 %
     plain = k1_change_interval(7e8, spread, 1e9)
     wide = k1_change_interval(7e8, spread, 1e9, stiffer_by=0.2)
@@ -310,8 +312,15 @@ def test_a_change_from_a_virgin_start_reaches_higher():
     virgin = sec.rebased(1e9, -30.0, "event ev1", event=True, stiffness=7e8)
     known = replace(sec, history_known=True).rebased(1e9, -30.0, "event ev1", event=True,
                                                      stiffness=7e8)
-    assert virgin.k1_change_hi_pct == pytest.approx(wide.hi_pct)
-    assert known.k1_change_hi_pct == pytest.approx(plain.hi_pct)
+    res = RC_STIFFNESS_RESOLUTION
+    assert virgin.k1_change_hi_pct == pytest.approx(
+        k1_change_interval(7e8, spread, 1e9, stiffer_by=0.2, resolution=res).hi_pct)
+    assert virgin.k1_change_hi_pct == pytest.approx(
+        100 * (0.7 * (1 + math.hypot(1e7 / 7e8, 0.2, res, res)) - 1))
+    assert known.k1_change_hi_pct == pytest.approx(
+        100 * (0.7 * (1 + math.hypot(1e7 / 7e8, res, res)) - 1))
+    assert known.k1_change_lo_pct == pytest.approx(
+        100 * (0.7 * (1 - math.hypot(1e7 / 7e8, res, res)) - 1))
     assert virgin.k1_change_lo_pct == pytest.approx(known.k1_change_lo_pct)
     # against design values (no earlier event) nothing is widened
     design = sec.rebased(1e9, -30.0, "design values", stiffness=7e8)

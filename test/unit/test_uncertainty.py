@@ -18,10 +18,11 @@ import pytest
 
 from ensemble_helpers import (MEMBERS, ensemble_result, normal_members, yielded_members)
 from pier_monitor.core.errors import InputDataError
-from pier_monitor.core.identify.damage import (BILINEAR_MISFIT, P_YIELD_LOW, DamageState,
+from pier_monitor.core.identify.damage import (BILINEAR_MISFIT, P_YIELD_LOW,
+                                               RC_STIFFNESS_RESOLUTION,
+                                               VIRGIN_START_STIFFNESS, DamageState,
                                                IdentificationResult, build_sections,
-                                               VIRGIN_START_STIFFNESS, classify_ductility,
-                                               decide_state)
+                                               classify_ductility, decide_state)
 from pier_monitor.core.identify.uncertainty import (MemberResponses, Spread, k1_change_interval,
                                                     overall_state_probabilities,
                                                     summarize_members)
@@ -264,24 +265,32 @@ def _takeda(result: IdentificationResult, bilinear_k1: float,
 def test_a_takeda_sections_interval_is_that_of_its_stiffness_after_the_event() -> None:
     """A Takeda section's uncertainty ``k1`` is the spread of ``k_small_after``, the
     stiffness a change against an earlier event compares: that change gets its interval
-    and the cracking rule; a change of the bilinear ``k1`` against design values gets none
-    (no interval of it was drawn)."""
+    and the cracking rule, widened by the family's resolution (``RC_STIFFNESS_RESOLUTION``
+    for each event); a change of the bilinear ``k1`` against design values gets none (no
+    interval of it was drawn)."""
     before0, after0 = _k1_events(0.13, 0.01)
     before, after = _takeda(before0, 0.6 * K1), _takeda(after0, 0.5 * K1)
     s = after.with_baseline(before).sections[0]
     ks_before, ks_after = before.sections[0].k_small_after, after.sections[0].k_small_after
     assert s.k1_change_pct == pytest.approx(100 * (ks_after / ks_before - 1), abs=1e-9)
     want = k1_change_interval(ks_after, after.sections[0].uncertainty.k1, ks_before,
-                              before.sections[0].uncertainty.k1)
+                              before.sections[0].uncertainty.k1,
+                              resolution=RC_STIFFNESS_RESOLUTION)
     assert (s.k1_change_lo_pct, s.k1_change_hi_pct, s.k1_change_scatter_pct) == \
         pytest.approx((want.lo_pct, want.hi_pct, want.scatter_pct), rel=1e-12)
-    assert -15.5 < s.k1_change_lo_pct < s.k1_change_hi_pct < -s.k1_change_scatter_pct < 0
+    draws_only = k1_change_interval(ks_after, after.sections[0].uncertainty.k1, ks_before,
+                                    before.sections[0].uncertainty.k1)
+    assert -15.5 < draws_only.lo_pct and draws_only.hi_pct < -10.5  # the draws' alone
+    assert -19.6 < s.k1_change_lo_pct < -19.4 and -6.6 < s.k1_change_hi_pct < -6.4
+    assert s.k1_change_scatter_pct == pytest.approx(draws_only.scatter_pct)
+    assert s.k1_change_hi_pct < -s.k1_change_scatter_pct < 0
     assert s.state == "suspicious" and s.reasons[0].endswith("%): cracking")
     # a spring that started virgin after the earlier event: the truth may lie higher
     v = _takeda(after0, 0.5 * K1, history_known=False).with_baseline(before).sections[0]
     wide = k1_change_interval(ks_after, after.sections[0].uncertainty.k1, ks_before,
                               before.sections[0].uncertainty.k1,
-                              stiffer_by=VIRGIN_START_STIFFNESS)
+                              stiffer_by=VIRGIN_START_STIFFNESS,
+                              resolution=RC_STIFFNESS_RESOLUTION)
     assert (v.k1_change_lo_pct, v.k1_change_hi_pct) == pytest.approx((want.lo_pct,
                                                                       wide.hi_pct))
     assert v.k1_change_hi_pct > s.k1_change_hi_pct
@@ -303,6 +312,14 @@ def test_k1_change_interval_is_the_members_interval_against_a_baseline_without_s
     assert got.lo_pct == pytest.approx(100 * (0.9 * (1 - math.hypot(a_lo, 0.04)) - 1))
     assert got.hi_pct == pytest.approx(100 * (0.9 * (1 + math.hypot(a_hi, 0.03)) - 1))
     assert got.scatter_pct == pytest.approx(100 * 0.9 * math.hypot(0.01 / 0.9, 0.02))
+    res = k1_change_interval(0.9e9, spread, 1.0e9, base, resolution=0.05)
+    assert res.lo_pct == pytest.approx(100 * (0.9 * (1 - math.hypot(a_lo, 0.04, 0.05, 0.05))
+                                              - 1))
+    assert res.hi_pct == pytest.approx(100 * (0.9 * (1 + math.hypot(a_hi, 0.03, 0.05, 0.05))
+                                              - 1))
+    assert res.scatter_pct == got.scatter_pct
+    with pytest.raises(InputDataError, match="resolution"):
+        k1_change_interval(0.9e9, spread, 1.0e9, resolution=-0.01)
 
 
 def test_one_member_is_exactly_a_single_identification() -> None:

@@ -424,7 +424,7 @@ class K1ChangeInterval:
 
 def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
                        baseline_spread: Spread | None = None,
-                       stiffer_by: float = 0.0) -> K1ChangeInterval:
+                       stiffer_by: float = 0.0, resolution: float = 0.0) -> K1ChangeInterval:
     """The 90 % interval of the change of ``k1`` against a baseline.
 
     The change is ``100 (r − 1)`` with ``r = k1 / baseline_k1`` (the reported values).  Its
@@ -438,6 +438,11 @@ def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
     one-sided error of this identification's ``k1``, the truth up to that much higher
     (:data:`~pier_monitor.core.identify.damage.VIRGIN_START_STIFFNESS`), combined in
     quadrature into ``r_hi`` only: ``r_hi = r (1 + √(a_hi² + b_lo² + stiffer_by²))``.
+    ``resolution`` (a fraction, >= 0): the relative resolution of each of the two
+    stiffnesses that no member shows
+    (:data:`~pier_monitor.core.identify.damage.RC_STIFFNESS_RESOLUTION`), combined in
+    quadrature, once for each, into both ends: ``r_lo = r (1 − √(a_lo² + b_hi² +
+    2 resolution²))``; the scatter stays the members'.
 
     Parameters
     ----------
@@ -460,17 +465,20 @@ def k1_change_interval(k1: float, spread: Spread, baseline_k1: float,
                              f"in N*m/rad, got {k1!r} and {baseline_k1!r}")
     if not spread.defined or not spread.mean > 0:
         raise InputDataError(f"k1 change interval: the spread of k1 is undefined ({spread})")
-    if not (math.isfinite(stiffer_by) and stiffer_by >= 0):
-        raise InputDataError(f"k1 change interval: stiffer_by: expected a fraction >= 0, got "
-                             f"{stiffer_by!r}")
+    for name, value in (("stiffer_by", stiffer_by), ("resolution", resolution)):
+        if not (math.isfinite(value) and value >= 0):
+            raise InputDataError(f"k1 change interval: {name}: expected a fraction >= 0, "
+                                 f"got {value!r}")
 
     a_lo, a_hi, a_s = spread.relative_bounds()
     b_lo, b_hi, b_s = (baseline_spread.relative_bounds() if baseline_spread is not None
                        else (0.0, 0.0, 0.0))
     r = k1 / baseline_k1
     # a stiffness is not negative: the change is at least -100 %
-    return K1ChangeInterval(lo_pct=100.0 * (r * max(1.0 - math.hypot(a_lo, b_hi), 0.0) - 1.0),
-                            hi_pct=100.0 * (r * (1.0 + math.hypot(a_hi, b_lo, stiffer_by))
+    res = (resolution, resolution)
+    return K1ChangeInterval(lo_pct=100.0 * (r * max(1.0 - math.hypot(a_lo, b_hi, *res), 0.0)
+                                            - 1.0),
+                            hi_pct=100.0 * (r * (1.0 + math.hypot(a_hi, b_lo, stiffer_by, *res))
                                             - 1.0),
                             scatter_pct=100.0 * r * math.hypot(a_s, b_s))
 
