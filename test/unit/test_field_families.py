@@ -225,11 +225,11 @@ def test_auto_keeps_the_equation_error_fit_where_the_reconstruction_misfits_too(
 
 
 def test_a_history_that_does_not_fit_is_dropped_and_an_accelerometer_layout_leaves_one():
-    """The field reconstruction given a history (the springs' peaks before the window) also
-    starts from virgin springs and keeps the one that reproduces the data better: a history
-    at 20 times every section's design yield rotation, which this window (its first
-    shaking) never had, reproduces it far worse and is dropped, the base's DF as without
-    it.  With an accelerometer at every level the result leaves its reconstructed rotation
+    """The field reconstruction given a history (the springs' peaks before the window) races
+    virgin springs on its first start and reconstructs from the one that reproduces the data
+    better: a history at 20 times every section's design yield rotation, which this window
+    (its first shaking) never had, reproduces it far worse and is dropped, the base's DF as
+    without it.  With an accelerometer at every level the result leaves its reconstructed rotation
     history for the next event."""
     syn = field_case_recording("edefense", "accel", False, "strong", 0, hysteresis="takeda")
     window, _, _ = _field_window(syn, "edefense/accel/strong/0/takeda")

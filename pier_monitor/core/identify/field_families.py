@@ -468,6 +468,20 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     bilinear draws (seeds 620-627, both piers) the bilinear was chosen in 16 of 16.  An
     earlier reconstruction (one refinement, and the DF floor on the hardened peak) left
     chi-squares up to 190 times the independent samples there and was not run.
+
+    Where the window carries the pier's history in (``prior_rotation_peaks``, which may be a
+    reconstruction's), virgin springs race it: the first start (the equation-error one where
+    there is one) is refined from each, and the one of lower chi-square alone is reconstructed
+    in full (``family.reason`` gives both and which was kept).  Reconstructing both in full
+    and keeping the better, as first built, doubled the second event's time.  On the
+    two-shaking sequences' tuning seeds (610-615, 620-625; Takeda springs, both piers,
+    accelerometers, 21 second events, one run at a time) the race kept the same start as
+    the full comparison in 18; the second events took 17.4 s on average and 60.4 s at most,
+    against 26.0 and 80.9 s.  Of the three it decided otherwise, the base of E-Defense seed
+    612 read DF 3.15 against a true 3.18, damaged (3.09, suspicious, before); of seed 613
+    3.53 against 3.71, suspicious (3.92, damaged), its second section 1.67 against 1.00
+    (1.09; suspicious both) and its top section intact (true 0.56; suspicious before); the
+    fifth section of Table 1 seed 614 intact (true 0.28; suspicious before).
     """
     settings = settings or FieldSettings()
     pb = _FieldProblem(window, settings)
@@ -617,8 +631,8 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     start_note = ""
     if np.any(tf.prior_peak > 0):
         # the springs carried the pier's history in (it may be a reconstruction's): virgin
-        # springs race it on the refinement of each one's first start (see HISTORY_RACE),
-        # and the winner alone is reconstructed
+        # springs race it on the refinement of each one's first start, and the winner alone
+        # is reconstructed (see the notes of this function)
         with_history = tf
         chi2_h = tf.chi2(refine_start(ranked_starts()[1][0], hi_f).fun)
         tf = _TakedaField(pb, window, virgin=True)
