@@ -226,11 +226,11 @@ def test_auto_keeps_the_equation_error_fit_where_the_reconstruction_misfits_too(
 
 def test_a_history_that_does_not_fit_is_dropped_and_an_accelerometer_layout_leaves_one():
     """The field reconstruction given a history (the springs' peaks before the window) races
-    virgin springs on its first start and reconstructs from the one that reproduces the data
-    better: a history at 20 times every section's design yield rotation, which this window
-    (its first shaking) never had, reproduces it far worse and is dropped, the base's DF as
-    without it.  With an accelerometer at every level the result leaves its reconstructed rotation
-    history for the next event."""
+    virgin springs on its refined starts and keeps the one that reproduces the data better:
+    a history at 20 times every section's design yield rotation, which this window (its
+    first shaking) never had, reproduces it far worse and is dropped, the base's DF as
+    without it.  With an accelerometer at every level the result leaves its reconstructed
+    rotation history for the next event."""
     syn = field_case_recording("edefense", "accel", False, "strong", 0, hysteresis="takeda")
     window, _, _ = _field_window(syn, "edefense/accel/strong/0/takeda")
     truth = syn.truth.runs[0].rc
@@ -238,8 +238,8 @@ def test_a_history_that_does_not_fit_is_dropped_and_an_accelerometer_layout_leav
     run = identify(replace(window, prior_rotation_peaks=np.stack([far, -far])))
     family = run.result.family
     assert family["family"] == "takeda" and not family["history_known"]
-    found = re.search(r"started from the pier's history: chi-square ([0-9.]+) on the first "
-                      r"start, from virgin springs ([0-9.]+), virgin springs kept",
+    found = re.search(r"started from the pier's history: chi-square ([0-9.]+) over the "
+                      r"refined starts, from virgin springs ([0-9.]+), virgin springs kept",
                       family["reason"])
     assert found is not None, family["reason"]
     assert float(found[1]) > 1.5 * float(found[2])

@@ -631,18 +631,22 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     start_note = ""
     if np.any(tf.prior_peak > 0):
         # the springs carried the pier's history in (it may be a reconstruction's): virgin
-        # springs race it on the refinement of each one's first start, and the winner alone
-        # is reconstructed (see the notes of this function)
+        # springs race it on the refined starts, and the winner alone is refitted where a
+        # yield is out of reach (see the notes of this function); the winner's refinements
+        # are not run again (``refined``)
+        def refined_chi2() -> float:
+            last.clear()
+            return tf.chi2(refine(hi_f, *ranked_starts()).fun)
+
         with_history = tf
-        chi2_h = tf.chi2(refine_start(ranked_starts()[1][0], hi_f).fun)
+        chi2_h = refined_chi2()
         tf = _TakedaField(pb, window, virgin=True)
-        last.clear()
-        chi2_v = tf.chi2(refine_start(ranked_starts()[1][0], hi_f).fun)
+        chi2_v = refined_chi2()
         if chi2_h <= chi2_v:
             tf = with_history
-            last.clear()
-        start_note = (f"; started from the pier's history: chi-square {chi2_h:.1f} on the "
-                      f"first start, from virgin springs {chi2_v:.1f}, "
+        last.clear()
+        start_note = (f"; started from the pier's history: chi-square {chi2_h:.1f} over the "
+                      f"refined starts, from virgin springs {chi2_v:.1f}, "
                       + ("the history kept" if chi2_h <= chi2_v else "virgin springs kept"))
     sol, refit = reconstruct()
     refit += start_note
