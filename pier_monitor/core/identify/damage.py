@@ -1225,11 +1225,11 @@ class SectionResult:
         own = self.k1 if stiffness is None else float(stiffness)
         spread = self.k1_spread_of(own)
         if u is not None and u.members >= 2 and spread is not None and spread.defined:
-            # a Takeda fit started virgin after an earlier event: the stiffness it leaves is
-            # low by up to VIRGIN_START_STIFFNESS (the truth lies above)
-            virgin = event and self.family != "bilinear" and not self.history_known
-            # an RC family's stiffness after an earlier event: known to RC_STIFFNESS_RESOLUTION
+            # an RC family's stiffness after an earlier event: known to RC_STIFFNESS_RESOLUTION;
+            # a Takeda fit started virgin after one: the stiffness it leaves is low by up to
+            # VIRGIN_START_STIFFNESS (the truth lies above)
             rc = event and self.family != "bilinear"
+            virgin = rc and not self.history_known
             interval = k1_change_interval(own, spread, baseline_k1, baseline_spread,
                                           stiffer_by=VIRGIN_START_STIFFNESS if virgin else 0.0,
                                           resolution=RC_STIFFNESS_RESOLUTION if rc else 0.0)

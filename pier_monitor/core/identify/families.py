@@ -359,9 +359,9 @@ class FamilyChoice:
         yield the fit put out of reach (rule 12 of :mod:`~pier_monitor.core.identify.damage`).
     history_known : bool
         The pier's history was given and kept (the sections' ``prior_peaks`` say which
-        section's Takeda started from it; the field reconstruction keeps it where its first
-        start refined reproduces the data better than from virgin springs); False: every
-        spring started virgin, whatever came before.
+        section's Takeda started from it; the field reconstruction keeps it where its refined
+        starts reproduce the data better than from virgin springs); False: every spring
+        started virgin, whatever came before.
     """
 
     family: str

@@ -573,10 +573,10 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         return first + len(ranked[:REFINED_STARTS]), list(range(first)) + ranked
 
     # the refinements of the full bounds already run: (springs, start) -> least-squares result
-    refined: dict[tuple[int, int], optimize.OptimizeResult] = {}
+    refined: dict[tuple[_TakedaField, int], optimize.OptimizeResult] = {}
 
     def refine_start(k: int, hi_b: np.ndarray) -> optimize.OptimizeResult:
-        key = (id(tf), k)
+        key = (tf, k)
         if hi_b is hi_f and key in refined:
             return refined[key]
         trial = optimize.least_squares(
@@ -644,7 +644,6 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         chi2_v = refined_chi2()
         if chi2_h <= chi2_v:
             tf = with_history
-        last.clear()
         start_note = (f"; started from the pier's history: chi-square {chi2_h:.1f} over the "
                       f"refined starts, from virgin springs {chi2_v:.1f}, "
                       + ("the history kept" if chi2_h <= chi2_v else "virgin springs kept"))
