@@ -154,7 +154,12 @@ def test_members_decide_yield_against_the_fits_model_error_so_a_just_yielded_df_
     ens = fit.members
     assert fit.yielded[1]
     p_yield = ens.yielded.mean(axis=0)
-    assert p_yield[0] == 1.0 and p_yield[1] >= 0.5 and np.all(p_yield[2:] == 0.0)
+    assert p_yield[0] == 1.0 and p_yield[1] >= 0.5
+    # the elastic sections above: the fit does not yield them, and few members do (none on
+    # one CPU, 4 and 1 of 32 on another: a member's yield test near its threshold goes
+    # either way with the floating-point rounding; such a section is "may have yielded",
+    # never damaged)
+    assert not fit.yielded[2:].any() and np.all(p_yield[2:] <= 0.2)
     u = summarize_members(ens.params, ens.ductility, ens.yielded)
     df = u[1].ductility_factor
     assert df.lo <= true_df[1] <= df.hi
