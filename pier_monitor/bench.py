@@ -8,6 +8,7 @@ as JSON.
 from __future__ import annotations
 
 import dataclasses
+import operator
 import platform
 import tempfile
 import time
@@ -843,7 +844,8 @@ def _drawn_sequence_runs(spec: Any, hysteresis: str, seed: int,
 
 def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
                       layouts: tuple[str, ...] = ("full", "accel"),
-                      hysteresis: str = "takeda", drawn: bool = False) -> list[dict[str, Any]]:
+                      hysteresis: str = "takeda", drawn: bool = False,
+                      roundoff: float = 0.0) -> list[dict[str, Any]]:
     """Two shakings of one RC pier, as the product sees them: the k1 change it reports
     against the stiffness the test-bed's springs really lost.
 
@@ -863,7 +865,9 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
 
     ``drawn``: the records, PGAs and design values are drawn from ``seed``
     (:func:`_drawn_sequence_runs`), not the test-bed's fixed record and
-    :data:`DESIGN_FACTORS`; the cases are named ``rcseqdraw_...``.
+    :data:`DESIGN_FACTORS`; the cases are named ``rcseqdraw_...``.  ``roundoff``: every
+    window's accelerations are multiplied by ``1 + roundoff`` before they are identified
+    (:func:`bench_rc_sequence_roundoff`).
     """
     spec = field_pier(pier)
     config = load_config(find_config_file(spec.config_file))
@@ -896,6 +900,8 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
                 window = dataclasses.replace(
                     window, design=design,
                     event_id=f"{tag}_{hysteresis}_{pier}_{layout}_{seed}_{i + 1}_{run.name}")
+                if roundoff:
+                    window = dataclasses.replace(window, a=window.a * (1.0 + roundoff))
                 outcome, wall = identify_default(window, store, seed)
                 result = outcome.result
                 truth = run.rc
@@ -904,6 +910,9 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
                     "event": i + 1, "shaking": run.name, "layout": layout,
                     **({} if drawn_info is None else {"drawn": drawn_info[run.name]}),
                     "family": (result.family or {}).get("family"),
+                    "family_reason": (result.family or {}).get("reason"),
+                    "yield_gain_share": [sec.get("yield_gain_share") for sec in
+                                         (result.family or {}).get("sections") or ()],
                     "overall_state": result.overall_state,
                     "states": [s.state for s in result.sections],
                     "df": [s.ductility_factor for s in result.sections],
@@ -968,8 +977,8 @@ K_CHANGE_TARGET_POINTS = 10.0
 
 def bench_rc_sequence_drawn(seeds: tuple[int, ...] = RC_SEQUENCE_HELD_OUT_SEEDS,
                             piers: tuple[str, ...] = ("edefense", "table1"),
-                            layouts: tuple[str, ...] = ("full", "accel")
-                            ) -> list[dict[str, Any]]:
+                            layouts: tuple[str, ...] = ("full", "accel"),
+                            roundoff: float = 0.0) -> list[dict[str, Any]]:
     """:func:`bench_rc_sequence` on drawn sequences (``drawn=True``: each shaking's record
     and PGA, the design values drawn from the seed) of the modified-Takeda test-bed, both
     piers, and a summary per pier and layout (last entry) of the second event's stiffness
@@ -986,7 +995,8 @@ def bench_rc_sequence_drawn(seeds: tuple[int, ...] = RC_SEQUENCE_HELD_OUT_SEEDS,
         for pier in piers:
             split = "tuning" if seed in RC_SEQUENCE_TUNING_SEEDS else "held_out"
             try:
-                runs = bench_rc_sequence(seed=seed, pier=pier, layouts=layouts, drawn=True)
+                runs = bench_rc_sequence(seed=seed, pier=pier, layouts=layouts, drawn=True,
+                                         roundoff=roundoff)
             except SolverError as err:
                 out.append({"case": f"rcseqdraw_takeda_{pier}", "seed": seed, "pier": pier,
                             "split": split, "skipped": str(err), "wall_s": 0.0,
@@ -994,6 +1004,63 @@ def bench_rc_sequence_drawn(seeds: tuple[int, ...] = RC_SEQUENCE_HELD_OUT_SEEDS,
                 continue
             out.extend({**r, "pier": pier, "split": split} for r in runs)
     return [*out, summarize_rc_sequence(out)]
+
+
+#: The relative change of the accelerations in :func:`bench_rc_sequence_roundoff`: far
+#: below any sensor's noise, of the order of what another CPU's floating-point rounding
+#: leaves in a long computation.
+ROUNDOFF = 1e-9
+
+
+def roundoff_counts(plain: list[dict[str, Any]], moved: list[dict[str, Any]]
+                    ) -> dict[str, dict[str, int]]:
+    """Per ``pier/layout``, the sections of the events of ``moved`` (both events of each
+    sequence) against the same events of ``plain`` (matched by seed, pier, layout and event;
+    entries without ``event`` are skipped): how many there are, whose state changed, whose
+    DF moved by more than 5 % (of the true DF, at least 1), and, of the yielded ones (true DF
+    above 1), how many there are and whose DF moved by more than 15 % of the true DF."""
+    key = operator.itemgetter("seed", "pier", "layout", "event")
+    first = {key(r): r for r in plain if "event" in r}
+    groups: dict[str, dict[str, int]] = {}
+    for r in moved:
+        if "event" not in r or key(r) not in first:
+            continue
+        g = groups.setdefault(f"{r['pier']}/{r['layout']}", {
+            "sections": 0, "state_changed": 0, "df_moved_5pct": 0, "yielded": 0,
+            "yielded_df_moved_15pct": 0})
+        a = first[key(r)]
+        for df_a, df_b, t, st_a, st_b in zip(a["df"], r["df"], a["true_df"], a["states"],
+                                             r["states"]):
+            g["sections"] += 1
+            g["state_changed"] += int(st_a != st_b)
+            g["df_moved_5pct"] += int(abs(df_a - df_b) > 0.05 * max(t, 1.0))
+            if t > 1.0:
+                g["yielded"] += 1
+                g["yielded_df_moved_15pct"] += int(abs(df_a - df_b) > 0.15 * t)
+    return groups
+
+
+def bench_rc_sequence_roundoff(seeds: tuple[int, ...] = RC_SEQUENCE_HELD_OUT_SEEDS,
+                               layouts: tuple[str, ...] = ("accel",)
+                               ) -> list[dict[str, Any]]:
+    """How much of an answer is the optimiser's path, not the data: the drawn sequences of
+    :func:`bench_rc_sequence_drawn` identified twice, as measured and with every window's
+    accelerations multiplied by ``1 + ROUNDOFF``, and a last entry counting, per
+    ``pier/layout``, the sections (both events) whose state changed, whose DF moved by more
+    than 5 % (of the true DF, at least 1) and, of the yielded ones (true DF above 1), by more
+    than 15 % (:func:`roundoff_counts`).  Entries of the perturbed runs carry
+    ``"roundoff": ROUNDOFF``."""
+    plain = [r for r in bench_rc_sequence_drawn(seeds, layouts=layouts)
+             if r.get("case") != "rc_sequence_drawn_summary"]
+    moved = [{**r, "roundoff": ROUNDOFF}
+             for r in bench_rc_sequence_drawn(seeds, layouts=layouts, roundoff=ROUNDOFF)
+             if r.get("case") != "rc_sequence_drawn_summary"]
+    groups = roundoff_counts(plain, moved)
+    return [*plain, *moved, {"case": "rc_sequence_roundoff_summary", "roundoff": ROUNDOFF,
+                             "seeds": list(seeds), "groups": groups,
+                             "wall_s": float(sum(r.get("wall_s", 0.0) for r in plain + moved
+                                                 if "event" in r)),
+                             "device": "cpu"}]
 
 
 def _df_counts() -> dict[str, Any]:
@@ -1119,6 +1186,7 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "rc_sequence_drawn": lambda: bench_rc_sequence_drawn(),
     "rc_sequence_drawn_tuning": lambda: bench_rc_sequence_drawn(RC_SEQUENCE_TUNING_SEEDS),
     "rc_sequence_drawn_fresh": lambda: bench_rc_sequence_drawn(RC_SEQUENCE_FRESH_SEEDS),
+    "rc_sequence_roundoff": lambda: bench_rc_sequence_roundoff(),
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),
     "heldout_pinn": lambda: heldout_pinn_suite(),
@@ -1167,6 +1235,17 @@ def format_table(results: list[dict[str, Any]]) -> str:
                          f"{e['damaged_at_df_lt_1.2_before']} -> "
                          f"{e['damaged_at_df_lt_1.2_after']}, unreliable runs "
                          f"{e['unreliable_runs']}")
+    for r in results:
+        if r["case"] != "rc_sequence_roundoff_summary":
+            continue
+        lines.append(f"the same sequences with the accelerations times 1 + {r['roundoff']:g} "
+                     f"(seeds {r['seeds']}): sections that moved")
+        lines.append(f"  {'pier/layout':<18} {'sections':>8} {'state':>6} {'DF >5%':>7} "
+                     f"{'yielded':>8} {'DF >15%':>8}")
+        for key, g in r["groups"].items():
+            lines.append(f"  {key:<18} {g['sections']:>8} {g['state_changed']:>6} "
+                         f"{g['df_moved_5pct']:>7} {g['yielded']:>8} "
+                         f"{g['yielded_df_moved_15pct']:>8}")
     for r in results:
         if r["case"] != "rc_sequence_drawn_summary":
             continue
