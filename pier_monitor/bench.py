@@ -1041,7 +1041,7 @@ def roundoff_counts(plain: list[dict[str, Any]], moved: list[dict[str, Any]]
 
 
 def bench_rc_sequence_roundoff(seeds: tuple[int, ...] = RC_SEQUENCE_HELD_OUT_SEEDS,
-                               layouts: tuple[str, ...] = ("accel",)
+                               layouts: tuple[str, ...] = ("full", "accel")
                                ) -> list[dict[str, Any]]:
     """How much of an answer is the optimiser's path, not the data: the drawn sequences of
     :func:`bench_rc_sequence_drawn` identified twice, as measured and with every window's
