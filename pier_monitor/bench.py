@@ -842,6 +842,39 @@ def _drawn_sequence_runs(spec: Any, hysteresis: str, seed: int,
     return tuple(runs), factors, info
 
 
+def rc_sequence_windows(seed: int, pier: str, layout: str, hysteresis: str = "takeda",
+                        drawn: bool = False) -> tuple[list[MeasuredWindow], Any, dict | None]:
+    """The two windows of one RC pier's two-shaking sequence (:func:`bench_rc_sequence`),
+    ingested, with their design values and event ids: ``(windows, recording, drawn)``,
+    ``recording`` the test-bed's (its ``truth.runs`` one per window), ``drawn`` the drawn
+    records and PGAs per shaking (None where not ``drawn``)."""
+    spec = field_pier(pier)
+    config = load_config(find_config_file(spec.config_file))
+    n_springs = len(config.design.k1)
+    if drawn:
+        runs, factors, drawn_info = _drawn_sequence_runs(spec, hysteresis, seed, n_springs)
+    else:
+        runs = tuple(dataclasses.replace(spec.runs[s], pga_mps2=spec.rc_pga_mps2[hysteresis][s])
+                     for s in ("just_yield", "strong"))
+        factors = {k: np.asarray(DESIGN_FACTORS[k][:n_springs]) for k in DESIGN_FACTORS}
+        drawn_info = None
+    tag = "rcseqdraw" if drawn else "rcseq"
+    syn = field_recording(config, layout, Scenario(runs=runs), seed=seed, hysteresis=hysteresis)
+    windows, report = ingest_recording(syn.recording)
+    if len(windows) != len(runs):
+        reasons = "; ".join(o.failure or "" for o in report.outcomes)
+        raise InputDataError(f"rc sequence {pier}/{layout}: expected {len(runs)} windows, "
+                             f"got {len(windows)} ({reasons})")
+    n = windows[0].n_levels
+    first = syn.truth.runs[0].params
+    design = SpringParameters(*(getattr(first, k) * factors[k][:n]
+                                for k in ("k1", "k2", "fy", "c")))
+    return [dataclasses.replace(
+        window, design=design,
+        event_id=f"{tag}_{hysteresis}_{pier}_{layout}_{seed}_{i + 1}_{run.name}")
+        for i, (window, run) in enumerate(zip(windows, syn.truth.runs))], syn, drawn_info
+
+
 def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
                       layouts: tuple[str, ...] = ("full", "accel"),
                       hysteresis: str = "takeda", drawn: bool = False,
@@ -869,37 +902,14 @@ def bench_rc_sequence(seed: int = RC_HELD_OUT_SEEDS[0], pier: str = "edefense",
     window's accelerations are multiplied by ``1 + roundoff`` before they are identified
     (:func:`bench_rc_sequence_roundoff`).
     """
-    spec = field_pier(pier)
-    config = load_config(find_config_file(spec.config_file))
-    n_springs = len(config.design.k1)
-    if drawn:
-        runs, factors, drawn_info = _drawn_sequence_runs(spec, hysteresis, seed, n_springs)
-    else:
-        runs = tuple(dataclasses.replace(spec.runs[s], pga_mps2=spec.rc_pga_mps2[hysteresis][s])
-                     for s in ("just_yield", "strong"))
-        factors = {k: np.asarray(DESIGN_FACTORS[k][:n_springs]) for k in DESIGN_FACTORS}
-        drawn_info = None
     tag = "rcseqdraw" if drawn else "rcseq"
     out: list[dict[str, Any]] = []
     for layout in layouts:
-        syn = field_recording(config, layout, Scenario(runs=runs), seed=seed,
-                              hysteresis=hysteresis)
-        windows, report = ingest_recording(syn.recording)
-        if len(windows) != len(runs):
-            reasons = "; ".join(o.failure or "" for o in report.outcomes)
-            raise InputDataError(f"rc sequence {pier}/{layout}: expected {len(runs)} windows, "
-                                 f"got {len(windows)} ({reasons})")
-        n = windows[0].n_levels
-        first = syn.truth.runs[0].params
-        design = SpringParameters(*(getattr(first, k) * factors[k][:n]
-                                    for k in ("k1", "k2", "fy", "c")))
+        windows, syn, drawn_info = rc_sequence_windows(seed, pier, layout, hysteresis, drawn)
         events = []
         with tempfile.TemporaryDirectory(prefix=f"pier_monitor_{tag}_") as tmp:
             store = ResultsStore(Path(tmp))
             for i, (window, run) in enumerate(zip(windows, syn.truth.runs)):
-                window = dataclasses.replace(
-                    window, design=design,
-                    event_id=f"{tag}_{hysteresis}_{pier}_{layout}_{seed}_{i + 1}_{run.name}")
                 if roundoff:
                     window = dataclasses.replace(window, a=window.a * (1.0 + roundoff))
                 outcome, wall = identify_default(window, store, seed)

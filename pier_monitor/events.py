@@ -198,10 +198,14 @@ def identify_window(window: MeasuredWindow, settings: IdentifySettings, store: R
     window_file = store.start_event(window)
     out_dir = store.event_dir(window.event_id)
     history = store.history_before(window)  # the pier's earlier results, read once
-    baseline, prior = history.baseline, history.rotation_peaks
+    baseline, given = history.baseline, window
+    if history.rotation_peaks is not None:
+        given = replace(given, prior_rotation_peaks=history.rotation_peaks)
+    if history.rotation_peaks_unidentified is not None:
+        given = replace(given,
+                        prior_rotation_peaks_unidentified=history.rotation_peaks_unidentified)
     try:
-        run = identify(window if prior is None else replace(window, prior_rotation_peaks=prior),
-                       settings, callback=progress,
+        run = identify(given, settings, callback=progress,
                        baseline_k1=None if baseline is None else baseline.params.k1)
     except TrainingStopped:
         raise

@@ -62,11 +62,18 @@ class PierHistory:
     rotation_peaks : ndarray, shape (2, N), or None
         The rotation history the springs start from, rad
         (:meth:`ResultsStore.rotation_peaks_before`).
+    rotation_peaks_unidentified : ndarray, shape (2, N), or None
+        ``rotation_peaks`` with the reconstructed peaks of the sections whose DF the latest
+        result left poorly identified filled in (their
+        ``rotation_peaks_unidentified_rad``), rad; None where there are none
+        (:attr:`~pier_monitor.core.ingest.window.MeasuredWindow.
+        prior_rotation_peaks_unidentified`).
     """
 
     baseline: IdentificationResult | None
     peak_rotations: np.ndarray | None
     rotation_peaks: np.ndarray | None
+    rotation_peaks_unidentified: np.ndarray | None = None
 
 
 def _peak_rotations(earlier: list[IdentificationResult]) -> np.ndarray | None:
@@ -259,7 +266,9 @@ class ResultsStore:
         earlier = self._earlier_results(window)
         return PierHistory(baseline=earlier[0] if earlier else None,
                            peak_rotations=_peak_rotations(earlier),
-                           rotation_peaks=self._rotation_peaks(earlier, window))
+                           rotation_peaks=self._rotation_peaks(earlier, window),
+                           rotation_peaks_unidentified=self._rotation_peaks(
+                               earlier, window, unidentified=True))
 
     def peak_rotations_before(self, window: MeasuredWindow) -> np.ndarray | None:
         """The largest spring rotation per section, rad (N,), over the reliable results of
@@ -306,17 +315,26 @@ class ResultsStore:
         """
         return self._rotation_peaks(self._earlier_results(window), window)
 
-    def _rotation_peaks(self, earlier: list[IdentificationResult], window: MeasuredWindow
-                        ) -> np.ndarray | None:
-        """:meth:`rotation_peaks_before` of the results :meth:`_earlier_results` gave."""
+    def _rotation_peaks(self, earlier: list[IdentificationResult], window: MeasuredWindow,
+                        unidentified: bool = False) -> np.ndarray | None:
+        """:meth:`rotation_peaks_before` of the results :meth:`_earlier_results` gave;
+        ``unidentified``: with the peaks of the sections whose DF was not identified
+        (:attr:`PierHistory.rotation_peaks_unidentified`), None where there are none."""
         latest = earlier[-1] if earlier else None
-        if latest is None or all(s.rotation_peaks_after_rad is None for s in latest.sections):
+        if latest is None:
+            return None
+        if unidentified:
+            if all(s.rotation_peaks_unidentified_rad is None for s in latest.sections):
+                return None
+            peaks = [s.rotation_peaks_after_rad if s.rotation_peaks_unidentified_rad is None
+                     else s.rotation_peaks_unidentified_rad for s in latest.sections]
+        else:
+            peaks = [s.rotation_peaks_after_rad for s in latest.sections]
+        if all(p is None for p in peaks):
             return None
         # a section without one (a reconstructed rotation whose DF was not identified) starts
         # virgin
-        env = np.array([(0.0, 0.0) if s.rotation_peaks_after_rad is None
-                        else s.rotation_peaks_after_rad for s in latest.sections],
-                       dtype=float).T
+        env = np.array([(0.0, 0.0) if p is None else p for p in peaks], dtype=float).T
         if not (np.all(np.isfinite(env)) and np.all(env[0] >= 0) and np.all(env[1] <= 0)):
             log.warning("%s: its rotation peaks %s are not (θ+ >= 0, θ- <= 0): no history "
                         "before %s", self._result_name(latest), env.tolist(), window.event_id)

@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pier_monitor.bench import _field_window
+from pier_monitor.bench import _field_window, rc_sequence_windows
 from pier_monitor.bench_heldout import heldout_case
 from pier_monitor.core.identify.field_families import (
     FIELD_TAKEDA_DF_RESOLUTION, FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS, YIELD_SHARE, damped_takeda)
@@ -268,3 +268,37 @@ def test_a_history_that_does_not_fit_is_dropped_and_an_accelerometer_layout_leav
     peaks = np.array([s.rotation_peaks_after_rad for s in run.result.sections])
     assert peaks.shape == (4, 2) and np.all(peaks[:, 0] > 0) and np.all(peaks[:, 1] < 0)
     assert peaks[0, 0] > window.design.yield_angles[0]  # the base went past yield
+
+
+def test_peaks_whose_df_was_not_identified_start_the_springs_only_where_they_fit_best():
+    """A history whose sections' DFs the earlier event left poorly identified is offered
+    apart (``prior_rotation_peaks_unidentified``): the reconstruction races it against
+    virgin springs and keeps it where it reproduces the data better.  The second shaking of
+    a drawn sequence (E-Defense, accelerometers, seed 641), given event 1's reconstructed
+    peaks that way, fits them far better than virgin springs: they are kept, and no section
+    counts as started from an identified history.  Given to the first shaking, peaks at 20
+    times every section's design yield rotation, which the pier had never reached, fit
+    worse than virgin springs and are dropped."""
+    first, second = rc_sequence_windows(641, "edefense", "accel", drawn=True)[0]
+    run1 = identify(first)
+    peaks = np.array([s.rotation_peaks_after_rad for s in run1.result.sections]).T
+    assert peaks.shape == (2, 4) and peaks[0, 0] > first.design.yield_angles[0]
+    run = identify(replace(second, prior_rotation_peaks_unidentified=peaks))
+    family = run.result.family
+    found = re.search(r"from virgin springs ([0-9.]+), with the peaks whose DF was not "
+                      r"identified ([0-9.]+), the history with the peaks not identified kept",
+                      family["reason"])
+    assert found is not None, family["reason"]
+    assert float(found[2]) < 0.5 * float(found[1])
+    assert not family["history_known"]
+    assert all(not sec["prior_peaks_identified"] for sec in family["sections"])
+    assert all(not s.history_known for s in run.result.sections)
+    np.testing.assert_allclose([sec["prior_peaks"] for sec in family["sections"]], peaks.T)
+
+    far = 20.0 * first.design.yield_angles
+    run = identify(replace(first, prior_rotation_peaks_unidentified=np.stack([far, -far])))
+    family = run.result.family
+    found = re.search(r"from virgin springs ([0-9.]+), with the peaks whose DF was not "
+                      r"identified ([0-9.]+), virgin springs kept", family["reason"])
+    assert found is not None, family["reason"]
+    assert all(sec["prior_peaks"] == [0.0, 0.0] for sec in family["sections"])

@@ -234,12 +234,27 @@ def test_a_reconstructed_rotation_whose_df_is_not_identified_is_no_history(base_
     want = np.array(peaks).T
     want[:, [0, 2]] = 0.0
     np.testing.assert_allclose(store.rotation_peaks_before(later), want)
+    # ... their peaks kept aside, through result.json: the history with them is offered too
+    assert back.sections[0].rotation_peaks_unidentified_rad == pytest.approx(peaks[0])
+    assert back.sections[1].rotation_peaks_unidentified_rad is None
+    history = store.history_before(later)
+    np.testing.assert_allclose(history.rotation_peaks, want)
+    np.testing.assert_allclose(history.rotation_peaks_unidentified, np.array(peaks).T)
+    assert replace(later, prior_rotation_peaks_unidentified=np.array(peaks).T
+                   ).prior_rotation_peaks_unidentified.shape == (2, n)
+    with pytest.raises(InputDataError, match="prior_rotation_peaks_unidentified"):
+        replace(later, prior_rotation_peaks_unidentified=np.zeros((2, n + 1)))
     # a wire at level 1 measures section 1's rotation: its history stays
     disp = np.zeros(n, dtype=bool)
     disp[0] = True
     _stored(store, base_window, "ev3", 30.0, peaks, flagged=(0, 2), displacement_levels=disp)
     want[:, 0] = peaks[0]
     np.testing.assert_allclose(store.rotation_peaks_before(later), want)
+    want[:, 2] = peaks[2]
+    np.testing.assert_allclose(store.history_before(later).rotation_peaks_unidentified, want)
+    # nothing flagged: no second history
+    _stored(store, base_window, "ev4", 40.0, peaks, displacement_levels=np.zeros(n, dtype=bool))
+    assert store.history_before(later).rotation_peaks_unidentified is None
     with pytest.raises(InputDataError, match="displacement levels"):
         back.with_history_identified(np.ones(n + 1, dtype=bool))
 

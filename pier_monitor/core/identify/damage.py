@@ -1097,9 +1097,14 @@ class SectionResult:
     DF is poorly identified (:meth:`IdentificationResult.with_history_identified`): carried
     without that, a reconstructed history put the Table 1 pier's plastic rotation in the
     wrong one of its two lowest sections (tuning sequences, README "The pier's history
-    carried into the next event").  ``history_known``: the family's spring (a modified
-    Takeda) started from the pier's history (kept where it fitted better than a virgin
-    spring), not from a virgin spring;
+    carried into the next event").  ``rotation_peaks_unidentified_rad``: that section's
+    peaks where they are None for that reason; the next event's field reconstruction tries
+    them too, beside the identified history and virgin springs, and keeps them only where
+    they fit its data best
+    (:func:`~pier_monitor.core.identify.field_families.fit_field_families`).
+    ``history_known``: the family's spring (a modified Takeda) started from the pier's
+    identified history (kept where it fitted better than a virgin spring), not from a
+    virgin spring nor from peaks that were not identified;
     a change against an earlier event of one that did not carries
     :data:`VIRGIN_START_STIFFNESS` (:meth:`rebased`).
     """
@@ -1137,6 +1142,7 @@ class SectionResult:
     ductility_reference: str = ""
     rotation_peaks_after_rad: tuple[float, float] | None = None
     history_known: bool = False
+    rotation_peaks_unidentified_rad: tuple[float, float] | None = None
 
     @property
     def ductility_factor_upper_bound(self) -> bool:
@@ -1334,8 +1340,9 @@ class SectionResult:
         d["ductility_factor_upper_bound"] = self.ductility_factor_upper_bound
         d["evidence"] = list(self.evidence)
         d["poorly_identified"] = list(self.poorly_identified)
-        d["rotation_peaks_after_rad"] = (None if self.rotation_peaks_after_rad is None
-                                         else list(self.rotation_peaks_after_rad))
+        for name in ("rotation_peaks_after_rad", "rotation_peaks_unidentified_rad"):
+            peaks = getattr(self, name)
+            d[name] = None if peaks is None else list(peaks)
         return d
 
     @classmethod
@@ -1353,8 +1360,9 @@ class SectionResult:
         d["reasons"] = tuple(d.get("reasons", ()))
         d["evidence"] = tuple(d.get("evidence", ()))
         d["poorly_identified"] = tuple(d.get("poorly_identified", ()))
-        if d.get("rotation_peaks_after_rad") is not None:
-            d["rotation_peaks_after_rad"] = tuple(float(v) for v in d["rotation_peaks_after_rad"])
+        for name in ("rotation_peaks_after_rad", "rotation_peaks_unidentified_rad"):
+            if d.get(name) is not None:
+                d[name] = tuple(float(v) for v in d[name])
         return cls(**d)
 
 
@@ -1675,7 +1683,10 @@ class IdentificationResult:
         section whose rotation was reconstructed, not measured (an end level without a
         displacement sensor), and whose DF is poorly identified: its peak rotation is what
         the DF says is not identified, and the next event starts that spring virgin
-        (:meth:`~pier_monitor.store.ResultsStore.rotation_peaks_before`).
+        (:meth:`~pier_monitor.store.ResultsStore.rotation_peaks_before`), unless starting
+        from those peaks fits its data better: they move to
+        ``rotation_peaks_unidentified_rad``
+        (:meth:`~pier_monitor.store.ResultsStore.history_before`).
 
         Parameters
         ----------
@@ -1693,7 +1704,8 @@ class IdentificationResult:
                                  f"{np.shape(displacement_levels)}")
         measured = sections_ends_measured(np.asarray(displacement_levels, dtype=bool))
         return replace(self, sections=tuple(
-            replace(s, rotation_peaks_after_rad=None)
+            replace(s, rotation_peaks_after_rad=None,
+                    rotation_peaks_unidentified_rad=s.rotation_peaks_after_rad)
             if not measured[s.index] and "DF" in s.poorly_identified else s
             for s in self.sections))
 
@@ -1965,7 +1977,8 @@ def with_family(sections: tuple[SectionResult, ...], family: Any) -> tuple[Secti
         s, family=family.family, k_secant=float(family.secant_yield_stiffness[s.index]),
         k_small_after=float(family.small_amplitude_stiffness[s.index]),
         stiffness_loss_pct=float(-100.0 * family.stiffness_degradation[s.index]),
-        history_known=bool(family.sections[s.index].prior_peak > 0))
+        history_known=bool(family.sections[s.index].prior_peak > 0
+                           and family.sections[s.index].prior_peaks_identified))
         for s in sections)
 
 

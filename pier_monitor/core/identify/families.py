@@ -251,6 +251,12 @@ class SectionFamilies:
         The rotation peaks ``(θ+ >= 0, θ− <= 0)`` the Takeda fit started from, rad, in the
         window's frame (an earlier event's, its residual rotation removed;
         :func:`fit_section_families`); ``(0, 0)``: a virgin spring.
+    prior_peaks_identified : bool
+        Whether ``prior_peaks`` are the earlier event's identified peaks; False where they
+        are a reconstructed peak whose DF that event left poorly identified, carried because
+        the reconstruction started from them fitted better
+        (:func:`~pier_monitor.core.identify.field_families.fit_field_families`): the
+        section's history is then not known (``SectionResult.history_known``).
     yield_refused : bool
         The Takeda fit passed the yield test, but its yield rotation is below
         :data:`MIN_YIELD_ROTATION_SHARE` of the design's (:func:`fit_families`): not yielded,
@@ -274,6 +280,7 @@ class SectionFamilies:
     yield_refused: bool = False
     yield_gain_share: float | None = None
     prior_peaks: tuple[float, float] = (0.0, 0.0)
+    prior_peaks_identified: bool = True
 
     @property
     def prior_peak(self) -> float:
@@ -361,7 +368,8 @@ class FamilyChoice:
         The pier's history was given and kept (the sections' ``prior_peaks`` say which
         section's Takeda started from it; the field reconstruction keeps it where its refined
         starts reproduce the data better than from virgin springs); False: every spring
-        started virgin, whatever came before.
+        started virgin, whatever came before, or from peaks that were not identified
+        (``prior_peaks_identified``).
     """
 
     family: str
@@ -401,6 +409,7 @@ class FamilyChoice:
         out["sections"] = [
             {"n_eff": s.n_eff, "yielded": dict(s.yielded), "noise_var": s.noise_var,
              "prior_peaks": list(s.prior_peaks),
+             "prior_peaks_identified": bool(s.prior_peaks_identified),
              "best": s.best, "bic_unyielded": dict(s.bic_unyielded),
              "yield_gain_share": s.yield_gain_share,
              "fits": {k: {"params": f.params, "c": f.c, "rss": f.rss, "bic": f.bic,

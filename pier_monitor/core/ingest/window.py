@@ -269,6 +269,12 @@ class MeasuredWindow:
         residual rotation they left removed).  None: a virgin pier, or a history not known.
         Not stored with the window: the store supplies it
         (:meth:`~pier_monitor.store.ResultsStore.rotation_peaks_before`).
+    prior_rotation_peaks_unidentified : ndarray, shape (2, N), or None
+        ``prior_rotation_peaks`` with, in addition, the reconstructed peaks of the sections
+        whose DF the earlier event left poorly identified, rad, as above; the field
+        reconstruction tries them as a third start of the springs' history and keeps them
+        where they fit best.  None: there are no such peaks.  Not stored with the window
+        (:attr:`~pier_monitor.store.PierHistory.rotation_peaks_unidentified`).
     """
 
     pier_id: str
@@ -286,6 +292,7 @@ class MeasuredWindow:
     start_time_ns: int = 0
     report: dict[str, Any] = field(default_factory=dict)
     prior_rotation_peaks: np.ndarray | None = None
+    prior_rotation_peaks_unidentified: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = self.geometry.n_levels
@@ -321,14 +328,15 @@ class MeasuredWindow:
         object.__setattr__(self, "coverage", cov)
         object.__setattr__(self, "noise", noise)
         object.__setattr__(self, "start_time_ns", int(self.start_time_ns))
-        if self.prior_rotation_peaks is not None:
-            prior = np.array(self.prior_rotation_peaks, dtype=float)
+        for name in ("prior_rotation_peaks", "prior_rotation_peaks_unidentified"):
+            if getattr(self, name) is None:
+                continue
+            prior = np.array(getattr(self, name), dtype=float)
             if (prior.shape != (2, n) or not np.all(np.isfinite(prior))
                     or np.any(prior[0] < 0) or np.any(prior[1] > 0)):
-                raise InputDataError(f"window prior_rotation_peaks: expected shape (2, {n}), "
-                                     f"finite, row 0 >= 0 and row 1 <= 0 (rad), got "
-                                     f"{prior.tolist()}")
-            object.__setattr__(self, "prior_rotation_peaks", _readonly(prior))
+                raise InputDataError(f"window {name}: expected shape (2, {n}), finite, row 0 "
+                                     f">= 0 and row 1 <= 0 (rad), got {prior.tolist()}")
+            object.__setattr__(self, name, _readonly(prior))
 
     @property
     def n_levels(self) -> int:
