@@ -12,8 +12,11 @@ import pytest
 
 from pier_monitor.bench import _field_window, rc_sequence_windows
 from pier_monitor.bench_heldout import heldout_case
+from pier_monitor.core.identify import field_families
+from pier_monitor.core.identify.field import fit_field
 from pier_monitor.core.identify.field_families import (
-    FIELD_TAKEDA_DF_RESOLUTION, FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS, YIELD_SHARE, damped_takeda)
+    FIELD_TAKEDA_DF_RESOLUTION, FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS, YIELD_SHARE, damped_takeda,
+    fit_field_families)
 from pier_monitor.core.identify.damage import MAX_YIELD_ROTATION_RATIO
 from pier_monitor.core.identify.methods import (FIELD_FALLBACK_MAX_MISFIT, IdentifySettings,
                                                identify)
@@ -302,3 +305,21 @@ def test_peaks_whose_df_was_not_identified_start_the_springs_only_where_they_fit
                       r"identified ([0-9.]+), virgin springs kept", family["reason"])
     assert found is not None, family["reason"]
     assert all(sec["prior_peaks"] == [0.0, 0.0] for sec in family["sections"])
+
+
+def test_the_jacobian_columns_side_by_side_change_no_digit(monkeypatch):
+    """The Takeda reconstruction's Jacobian columns computed on two threads
+    (``JACOBIAN_THREADS``) give the very numbers of one thread: the same reconstructed
+    angles to the last digit, the same DFs and the same reason."""
+    syn = field_case_recording("table1", "accel", False, "just_yield", 1, hysteresis="takeda")
+    window, _, _ = _field_window(syn, "table1/accel/just_yield/1/takeda")
+    fit = fit_field(window)
+    out = {}
+    for threads in (1, 2):
+        monkeypatch.setattr(field_families, "JACOBIAN_THREADS", threads)
+        out[threads] = fit_field_families(window, fit)
+    (one, theta_1, _), (two, theta_2, _) = out[1], out[2]
+    assert one.family == "takeda"
+    np.testing.assert_array_equal(theta_1, theta_2)
+    np.testing.assert_array_equal(one.ductility_factor, two.ductility_factor)
+    assert one.reason == two.reason

@@ -35,6 +35,10 @@ integrate that spring alone).
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 from scipy import optimize
 
@@ -56,7 +60,7 @@ from pier_monitor.core.model.springs import (
     takeda_unloading_stiffness, yield_peak_fraction)
 
 __all__ = ["FIELD_TAKEDA_DF_RESOLUTION", "FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS",
-           "MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "OUT_OF_REACH_MY_CAP",
+           "JACOBIAN_THREADS", "MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "OUT_OF_REACH_MY_CAP",
            "REFINED_STARTS", "YIELD_SHARE", "damped_takeda", "fit_field_families"]
 
 #: Uniform starts refined by least squares beside the equation-error start, the lowest-cost
@@ -263,6 +267,24 @@ def damped_takeda(g: np.ndarray, dt: float, params: TakedaParameters, c: float,
 #: Takeda columns per spring: the seven of the equation-error fit
 #: (:class:`~pier_monitor.core.identify.families._Problem`), then log c.
 _NT = 8
+#: Threads that compute the Takeda reconstruction's Jacobian columns side by side, at most
+#: the machine's cores (1: in the calling thread).  Each column integrates one spring (the
+#: compiled integration releases the GIL) and is computed exactly as alone, so the results
+#: do not depend on it.  Measured alone on the 2-core benchmark machine (README, "Jacobian
+#: columns side by side").
+JACOBIAN_THREADS = 2
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+
+
+def _map_columns(column: Callable[[int], np.ndarray], n_columns: int) -> list[np.ndarray]:
+    """``[column(j) for j in range(n_columns)]``, on :data:`JACOBIAN_THREADS` threads."""
+    threads = max(1, min(JACOBIAN_THREADS, os.cpu_count() or 1))
+    if threads == 1:
+        return [column(j) for j in range(n_columns)]
+    if threads not in _POOLS:
+        _POOLS[threads] = ThreadPoolExecutor(max_workers=threads,
+                                             thread_name_prefix="pier_monitor_jacobian")
+    return list(_POOLS[threads].map(column, range(n_columns)))
 
 
 def _tak_array(x: np.ndarray, k_ref: float, f_ref: float) -> np.ndarray:
@@ -568,8 +590,8 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
             g0 = pb.moments(eps)
             th0, mo0 = tf.angles(q, g0)
         r0 = tf.residual(q, eps, th0)
-        jac = np.empty((r0.size, z.size))
-        for col in range(z.size):
+
+        def column(col: int) -> np.ndarray:
             h = 1e-4 * max(abs(z[col]), 0.1)
             if z[col] + h > hi_f[col]:
                 h = -h
@@ -589,8 +611,10 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                 th = tf.angles(qq, g, springs=moved, theta=th0, moment=mo0)[0]
                 r = (tf.residual(qq, eps_c, th) if np.all(np.isfinite(th))
                      else tf.failed(n_eps))
-            jac[:, col] = (r - r0) / h
-        return jac
+            return (r - r0) / h
+
+        # the columns are independent: computed side by side (JACOBIAN_THREADS)
+        return np.column_stack(_map_columns(column, z.size))
 
     scales = np.r_[np.tile([0.05, 0.1, 0.02, 0.02, 0.005, 0.05, 0.05, 0.1], n),
                    np.full(n_eps, 0.2 * pb.gain_sd)]
