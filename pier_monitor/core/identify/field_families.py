@@ -273,7 +273,7 @@ _NT = 8
 #: do not depend on it.  Measured alone on the 2-core benchmark machine (README, "Jacobian
 #: columns side by side").
 JACOBIAN_THREADS = 2
-_POOLS: dict[int, ThreadPoolExecutor] = {}
+_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 
 
 def _map_columns(column: Callable[[int], np.ndarray], n_columns: int) -> list[np.ndarray]:
@@ -281,10 +281,12 @@ def _map_columns(column: Callable[[int], np.ndarray], n_columns: int) -> list[np
     threads = max(1, min(JACOBIAN_THREADS, os.cpu_count() or 1))
     if threads == 1:
         return [column(j) for j in range(n_columns)]
-    if threads not in _POOLS:
-        _POOLS[threads] = ThreadPoolExecutor(max_workers=threads,
-                                             thread_name_prefix="pier_monitor_jacobian")
-    return list(_POOLS[threads].map(column, range(n_columns)))
+    # per process: a forked child does not inherit its parent's threads
+    key = (os.getpid(), threads)
+    if key not in _POOLS:
+        _POOLS[key] = ThreadPoolExecutor(max_workers=threads,
+                                         thread_name_prefix="pier_monitor_jacobian")
+    return list(_POOLS[key].map(column, range(n_columns)))
 
 
 def _tak_array(x: np.ndarray, k_ref: float, f_ref: float) -> np.ndarray:
