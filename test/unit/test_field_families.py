@@ -266,6 +266,8 @@ def test_a_history_that_does_not_fit_is_dropped_and_an_accelerometer_layout_leav
     assert found is not None, family["reason"]
     assert float(found[1]) > 1.5 * float(found[2])
     assert all(sec["prior_peaks"] == [0.0, 0.0] for sec in family["sections"])
+    # virgin springs, not peaks that were not identified
+    assert all(sec["prior_peaks_identified"] for sec in family["sections"])
     base = run.result.sections[0]
     assert base.ductility_factor == pytest.approx(truth.ductility_factor[0], rel=0.10)
     peaks = np.array([s.rotation_peaks_after_rad for s in run.result.sections])

@@ -60,8 +60,9 @@ from pier_monitor.core.model.springs import (
     takeda_unloading_stiffness, yield_peak_fraction)
 
 __all__ = ["FIELD_TAKEDA_DF_RESOLUTION", "FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS",
-           "JACOBIAN_THREADS", "MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE", "OUT_OF_REACH_MY_CAP",
-           "REFINED_STARTS", "YIELD_SHARE", "damped_takeda", "fit_field_families"]
+           "JACOBIAN_THREADS", "MAX_CHI2_PER_NEFF", "MIN_YIELD_ROTATION_SHARE",
+           "OUT_OF_REACH_MY_CAP", "REFINED_STARTS", "YIELD_SHARE", "damped_takeda",
+           "fit_field_families"]
 
 #: Uniform starts refined by least squares beside the equation-error start, the lowest-cost
 #: ones.  A heavy shaking's reconstruction has many local minima: refining only the start of
@@ -334,8 +335,9 @@ class _TakedaField:
         self.prior = (np.zeros((2, n)) if virgin else known if given is None
                       else np.asarray(given, dtype=float))
         self.prior_peak = np.maximum(self.prior[0], -self.prior[1])
-        # sections started from a peak that was not identified, (N,) bool
-        self.prior_unidentified = np.any(self.prior != known, axis=0)
+        # sections started from a peak that was not identified, (N,) bool (a virgin spring
+        # did not)
+        self.prior_unidentified = np.any(self.prior != known, axis=0) & (self.prior_peak > 0)
 
     def spring(self, q: np.ndarray, i: int) -> np.ndarray:
         """Spring ``i``'s :class:`TakedaParameters` fields (8,), SI, from its parameters."""
@@ -712,20 +714,19 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
             tf = side
             last.clear()
             chi2_side[name] = tf.chi2(refine(hi_f, *ranked_starts()).fun)
-        # the first of the lowest (the identified history, virgin springs, then the peaks
-        # not identified)
+        # the first of the lowest in this order (ties: the identified history, then virgin
+        # springs)
         order = [k for k in ("history", "virgin", "unidentified") if k in chi2_side]
-        kept = min(order, key=lambda k: (chi2_side[k], order.index(k)))
+        kept = min(order, key=chi2_side.__getitem__)
         tf = sides[kept]
-        said = {"history": "the history", "virgin": "virgin springs",
-                "unidentified": "the history with the peaks not identified"}
-        parts = {"history": f"chi-square {chi2_side.get('history', 0.0):.1f} over the refined "
-                            f"starts",
-                 "virgin": f"from virgin springs {chi2_side['virgin']:.1f}",
-                 "unidentified": f"with the peaks whose DF was not identified "
-                                 f"{chi2_side.get('unidentified', 0.0):.1f}"}
+        # per side: how its chi-square is reported, and its name where kept
+        said = {"history": ("chi-square {:.1f} over the refined starts", "the history"),
+                "virgin": ("from virgin springs {:.1f}", "virgin springs"),
+                "unidentified": ("with the peaks whose DF was not identified {:.1f}",
+                                 "the history with the peaks not identified")}
         start_note = ("; started from the pier's history: "
-                      + ", ".join(parts[k] for k in order) + f", {said[kept]} kept")
+                      + ", ".join(said[k][0].format(chi2_side[k]) for k in order)
+                      + f", {said[kept][1]} kept")
     sol, refit = reconstruct()
     refit += start_note
     last.clear()
