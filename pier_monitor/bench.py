@@ -980,6 +980,11 @@ RC_SEQUENCE_HELD_OUT_SEEDS = (640, 641, 642, 643, 644, 645)
 #: ``damage.SECTION_UNIDENTIFIED``), which had been measured on 640-645; first scored before
 #: any later change (suite ``rc_sequence_drawn_fresh``).
 RC_SEQUENCE_FRESH_SEEDS = (660, 661, 662, 663, 664, 665, 666, 667, 668, 669, 670, 671)
+#: A third held-out set, drawn for the yield profile of the sections read not yielded
+#: (``field_families.YIELD_PROFILE``), whose need was seen on the two sets above; scored
+#: once, accelerometers only, with the code before and after it (suite
+#: ``rc_sequence_drawn_third_accel``).
+RC_SEQUENCE_THIRD_SEEDS = tuple(range(680, 692))
 #: The RC acceptance's bound on a stiffness change, percentage points of the true change of
 #: the small-amplitude stiffness.
 K_CHANGE_TARGET_POINTS = 10.0
@@ -1196,6 +1201,8 @@ SUITES: dict[str, Callable[[], list[dict[str, Any]]]] = {
     "rc_sequence_drawn": lambda: bench_rc_sequence_drawn(),
     "rc_sequence_drawn_tuning": lambda: bench_rc_sequence_drawn(RC_SEQUENCE_TUNING_SEEDS),
     "rc_sequence_drawn_fresh": lambda: bench_rc_sequence_drawn(RC_SEQUENCE_FRESH_SEEDS),
+    "rc_sequence_drawn_third_accel": lambda: bench_rc_sequence_drawn(RC_SEQUENCE_THIRD_SEEDS,
+                                                                     layouts=("accel",)),
     "rc_sequence_roundoff": lambda: bench_rc_sequence_roundoff(),
     "latency": lambda: bench_latency(),
     "heldout": lambda: heldout_suite(),

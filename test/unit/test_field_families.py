@@ -309,6 +309,41 @@ def test_peaks_whose_df_was_not_identified_start_the_springs_only_where_they_fit
     assert all(sec["prior_peaks"] == [0.0, 0.0] for sec in family["sections"])
 
 
+def test_a_section_read_not_yielded_is_held_yielding_and_its_interval_says_what_is_left():
+    """The yield profile of the sections the reconstruction reports not yielded (the first
+    shaking of a drawn Table 1 sequence, accelerometers, tuning seed 611, every section
+    elastic): each spring held yielding at 1.2 times its peak over its yield rotation and
+    refitted with its neighbours.  The two lowest, which carry the largest moments, cannot
+    yield without a misfit the data refuse (well past the yield test's allowance): their
+    intervals stay below 1.  Section 4's yield costs about 1 % of the chi-square: the data do
+    not exclude it, its DF interval reaches up to the refit's DF and the reason says so.  A
+    refit that does not yield (section 6, the lightest) says nothing."""
+    (first, _), recording, _ = rc_sequence_windows(611, "table1", "accel", drawn=True)
+    truth = recording.truth.runs[0].rc.ductility_factor
+    result = identify(first).result
+    family = result.family
+    assert family["family"] == "takeda" and np.all(truth < 1.0)
+    profile = family["sections"]
+    for i in (0, 1):
+        s = result.sections[i]
+        assert not s.yielded and profile[i]["yield_profile_excluded"] is True
+        assert profile[i]["yield_profile_df"] > 1.0
+        assert profile[i]["yield_profile_gain_share"] > 1.2 * YIELD_SHARE
+        assert s.df_yield_not_excluded is None
+        assert s.uncertainty.ductility_factor.hi <= 1.0
+    s = result.sections[3]
+    assert not s.yielded and profile[3]["yield_profile_excluded"] is False
+    assert 0.0 < profile[3]["yield_profile_gain_share"] < 0.1 * YIELD_SHARE
+    assert profile[3]["yield_profile_df"] > 1.05
+    hi_drawn, hi = s.df_yield_not_excluded
+    assert hi_drawn <= 1.0 and hi == s.uncertainty.ductility_factor.hi == profile[3]["yield_profile_df"]
+    assert "yield not excluded by the data" in family["reason"]
+    assert f"{hi:.2f} (section 4)" in family["reason"]
+    assert profile[5]["yield_profile_df"] < 1.0 and result.sections[5].df_yield_not_excluded is None
+    assert "(section 6)" not in family["reason"]
+    assert all(not sec["yielded"]["takeda"] for sec in profile)
+
+
 def test_the_jacobian_columns_side_by_side_change_no_digit(monkeypatch):
     """The Takeda reconstruction's Jacobian columns computed on two threads
     (``JACOBIAN_THREADS``) give the very numbers of one thread: the same reconstructed

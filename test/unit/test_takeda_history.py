@@ -151,11 +151,14 @@ def base_window() -> MeasuredWindow:
 
 def _stored(store: ResultsStore, base: MeasuredWindow, event_id: str, start_s: float,
             peaks: list[tuple[float, float] | None] | None, reliable: bool = True,
-            flagged: tuple[int, ...] = (), displacement_levels: np.ndarray | None = None
+            flagged: tuple[int, ...] = (), displacement_levels: np.ndarray | None = None,
+            profile_only: tuple[int, ...] = (), evidence: dict[int, str] | None = None
             ) -> MeasuredWindow:
     """``base`` as event ``event_id`` of pier7 with a result whose sections hold ``peaks``
     (their ``rotation_peaks_after_rad``), reliable or not, the DF of the sections
-    ``flagged`` poorly identified; with ``displacement_levels``, stored as
+    ``flagged`` poorly identified (of those in ``profile_only`` only because the data do not
+    exclude a yield up to DF 1.3; ``evidence``: a section's self-check line); with
+    ``displacement_levels``, stored as
     :meth:`~IdentificationResult.with_history_identified` leaves it."""
     w = replace(base, pier_id="pier7", event_id=event_id,
                 start_time_ns=T0 + int(start_s * 1e9))
@@ -167,7 +170,10 @@ def _stored(store: ResultsStore, base: MeasuredWindow, event_id: str, start_s: f
         state="intact", yielded=False, k2_identifiable=False, fy_identifiable=False,
         family="bilinear", k_small_after=2e9,
         rotation_peaks_after_rad=None if peaks is None else peaks[i],
-        poorly_identified=("DF",) if i in flagged else ())
+        poorly_identified=("DF",) if i in flagged else (),
+        df_yield_not_excluded=(0.5, 1.3) if i in profile_only else None,
+        df_flagged_by_yield_profile=i in profile_only,
+        evidence=((evidence or {})[i],) if i in (evidence or {}) else ())
         for i in range(w.n_levels))
     result = IdentificationResult(
         pier_id=w.pier_id, event_id=w.event_id, sections=sections, overall_state="intact",
@@ -257,6 +263,34 @@ def test_a_reconstructed_rotation_whose_df_is_not_identified_is_no_history(base_
     assert store.history_before(later).rotation_peaks_unidentified is None
     with pytest.raises(InputDataError, match="displacement levels"):
         back.with_history_identified(np.ones(n + 1, dtype=bool))
+
+
+def test_a_df_flagged_only_because_a_yield_is_not_excluded_keeps_its_history(base_window,
+                                                                             tmp_path):
+    """A reconstructed section whose DF is poorly identified only because the data do not
+    exclude a yield (its interval reaches up to the yield profile's DF; its peak rotation is
+    identified) keeps its rotation history, through result.json; one that a self-check rule
+    flagged as well (a neighbour's yield out of reach) does not."""
+    from pier_monitor.core.identify.damage import YIELD_OUT_OF_REACH
+
+    store = ResultsStore(tmp_path / "results")
+    n = base_window.n_levels
+    later = replace(base_window, pier_id="pier7", event_id="ev9",
+                    start_time_ns=T0 + int(500e9))
+    peaks = [(1e-3 * (i + 1), -5e-4 * (i + 1)) for i in range(n)]
+    _stored(store, base_window, "ev1", 10.0, peaks, flagged=(0, 1, 2),
+            displacement_levels=np.zeros(n, dtype=bool), profile_only=(1, 2),
+            evidence={2: f"{YIELD_OUT_OF_REACH}: section 4's yield rotation is 6 times the "
+                         "design's"})
+    back = [r for r in store.results("pier7") if r.event_id == "ev1"][0]
+    assert [s.df_flagged_by_yield_profile_only for s in back.sections][:3] == [False, True,
+                                                                              False]
+    assert back.sections[1].df_yield_not_excluded == (0.5, 1.3)
+    assert [s.rotation_peaks_after_rad is None for s in back.sections][:3] == [True, False,
+                                                                              True]
+    want = np.array(peaks).T
+    want[:, [0, 2]] = 0.0
+    np.testing.assert_allclose(store.rotation_peaks_before(later), want)
 
 
 def test_the_field_reconstructions_spring_starts_from_the_same_history():

@@ -415,6 +415,33 @@ def test_df_interval_of_a_yielded_section_is_never_narrower_than_its_resolution(
 
 
 
+def test_df_interval_of_a_section_whose_yield_is_not_excluded_reaches_up_to_it():
+    """A section reported not yielded whose yield the data do not exclude up to DF 1.18 (the
+    field reconstruction's yield profile) has its DF interval reach up to 1.18, its lower end
+    and mean kept; a NaN bound, or one inside the interval, changes nothing; a bound of the
+    wrong shape is refused, naming it."""
+    from pier_monitor.core.identify.uncertainty import with_yield_not_excluded
+
+    rng = np.random.default_rng(2)
+    m = 16
+    params = np.tile([1e9, 1e8, 1e6, 1e6], (m, 3, 1)) * (1 + 1e-3 * rng.standard_normal((m, 3, 4)))
+    ductility = np.column_stack([0.93 + 0.01 * rng.standard_normal(m), np.full(m, 0.6),
+                                 1.0 + 0.2 * rng.random(m)])
+    yielded = np.column_stack([np.zeros(m, bool), np.zeros(m, bool), np.ones(m, bool)])
+    raw = summarize_members(params, ductility, yielded)
+    assert raw[0].ductility_factor.hi < 0.96
+    out = with_yield_not_excluded(raw, np.array([1.18, np.nan, 1.05]))
+    s0 = out[0].ductility_factor
+    assert s0.hi == 1.18
+    assert (s0.lo, s0.mean, s0.std) == (raw[0].ductility_factor.lo, raw[0].ductility_factor.mean,
+                                        raw[0].ductility_factor.std)
+    assert out[0].k1 == raw[0].k1 and out[0].p_yielded == raw[0].p_yielded
+    assert out[1] == raw[1]  # no bound
+    assert raw[2].ductility_factor.hi > 1.05 and out[2] == raw[2]  # already past it
+    with pytest.raises(InputDataError, match="yield-profile DF bounds: expected 3"):
+        with_yield_not_excluded(raw, np.ones(2))
+
+
 def test_c_interval_is_never_narrower_than_its_resolution():
     """Members that agree to 1e-4 on ``c`` get its resolution, ±2 % of the fit's own ``c``;
     members spread by 10 % keep their own interval; the other quantities are untouched."""

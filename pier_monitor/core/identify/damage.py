@@ -1097,7 +1097,9 @@ class SectionResult:
     DF is poorly identified (:meth:`IdentificationResult.with_history_identified`): carried
     without that, a reconstructed history put the Table 1 pier's plastic rotation in the
     wrong one of its two lowest sections (tuning sequences, README "The pier's history
-    carried into the next event").  ``rotation_peaks_unidentified_rad``: that section's
+    carried into the next event"; a DF flagged only because the data do not exclude a yield,
+    :attr:`df_flagged_by_yield_profile_only`, keeps them: its peak rotation is identified).
+    ``rotation_peaks_unidentified_rad``: that section's
     peaks where they are None for that reason; the next event's field reconstruction tries
     them too, beside the identified history and virgin springs, and keeps them only where
     they fit its data best
@@ -1107,6 +1109,13 @@ class SectionResult:
     virgin spring nor from peaks that were not identified;
     a change against an earlier event of one that did not carries
     :data:`VIRGIN_START_STIFFNESS` (:meth:`rebased`).
+
+    ``df_yield_not_excluded`` ``(hi_draws, hi)``: for a section reported not yielded whose
+    yield the data do not exclude (the field reconstruction's yield profile,
+    :attr:`~pier_monitor.core.identify.families.FamilyChoice.yield_not_excluded_df`), the
+    upper end of its DF interval from the posterior draws alone and the DF up to which the
+    interval now reaches; None elsewhere.  ``df_flagged_by_yield_profile``: its DF is
+    poorly identified by the width of that interval, and would not be by the draws' own.
     """
 
     index: int
@@ -1143,6 +1152,20 @@ class SectionResult:
     rotation_peaks_after_rad: tuple[float, float] | None = None
     history_known: bool = False
     rotation_peaks_unidentified_rad: tuple[float, float] | None = None
+    df_yield_not_excluded: tuple[float, float] | None = None
+    df_flagged_by_yield_profile: bool = False
+
+    @property
+    def df_flagged_by_yield_profile_only(self) -> bool:
+        """Whether the DF is poorly identified only because its interval reaches up to the
+        DF whose yield the data do not exclude (``df_flagged_by_yield_profile``, and no rule
+        of the self-check flagged it: 8, 10, 11, 12, 14, 16).  Its peak rotation is then
+        identified, its yield rotation is not."""
+        return (self.df_flagged_by_yield_profile and "DF" in self.poorly_identified
+                and not any(str(e).startswith((BILINEAR_MISFIT, FIT_AT_LIMIT, SPLIT_UNMEASURED,
+                                               YIELD_OUT_OF_REACH, YIELD_SPLIT,
+                                               YIELD_ABOVE_ELASTIC))
+                            for e in self.evidence))
 
     @property
     def ductility_factor_upper_bound(self) -> bool:
@@ -1317,8 +1340,11 @@ class SectionResult:
         if u is not None and _too_wide(u.ductility_factor, "DF"):
             # the reference's uncertainty can widen the interval past the DF's limit
             flags = _flagged(flags, "DF")
+        # on the reference the event's own interval is not this DF's: nor is its profile
+        profile_only = self.df_flagged_by_yield_profile_only and not on_reference
         out = replace(self, ductility_factor=df, yield_angle_rad=theta_y, yielded=yielded,
                       uncertainty=u, poorly_identified=flags,
+                      df_flagged_by_yield_profile=profile_only,
                       event_ductility_factor=float(own.ductility_factor),
                       event_yield_angle_rad=float(own.yield_angle_rad),
                       ductility_reference=(f"cumulative: peak rotation so far {peak:.4g} rad "
@@ -1340,7 +1366,8 @@ class SectionResult:
         d["ductility_factor_upper_bound"] = self.ductility_factor_upper_bound
         d["evidence"] = list(self.evidence)
         d["poorly_identified"] = list(self.poorly_identified)
-        for name in ("rotation_peaks_after_rad", "rotation_peaks_unidentified_rad"):
+        for name in ("rotation_peaks_after_rad", "rotation_peaks_unidentified_rad",
+                     "df_yield_not_excluded"):
             peaks = getattr(self, name)
             d[name] = None if peaks is None else list(peaks)
         return d
@@ -1360,7 +1387,8 @@ class SectionResult:
         d["reasons"] = tuple(d.get("reasons", ()))
         d["evidence"] = tuple(d.get("evidence", ()))
         d["poorly_identified"] = tuple(d.get("poorly_identified", ()))
-        for name in ("rotation_peaks_after_rad", "rotation_peaks_unidentified_rad"):
+        for name in ("rotation_peaks_after_rad", "rotation_peaks_unidentified_rad",
+                     "df_yield_not_excluded"):
             if d.get(name) is not None:
                 d[name] = tuple(float(v) for v in d[name])
         return cls(**d)
@@ -1706,7 +1734,8 @@ class IdentificationResult:
         return replace(self, sections=tuple(
             replace(s, rotation_peaks_after_rad=None,
                     rotation_peaks_unidentified_rad=s.rotation_peaks_after_rad)
-            if not measured[s.index] and "DF" in s.poorly_identified else s
+            if not measured[s.index] and "DF" in s.poorly_identified
+            and not s.df_flagged_by_yield_profile_only else s
             for s in self.sections))
 
     def with_baseline(self, baseline: IdentificationResult) -> IdentificationResult:

@@ -268,6 +268,13 @@ class SectionFamilies:
         :data:`~pier_monitor.core.identify.field_families.YIELD_SHARE`); None where the
         test did not run (the reconstruction does not pass the spring's yield point) and on
         the equation-error route.
+    yield_profile_df, yield_profile_gain_share, yield_profile_excluded : float, float, bool or None
+        Field reconstruction only, a section its Takeda reports not yielded: the DF that a
+        refit holding the spring yielding reached, the chi-square that costs over the
+        chi-square the fit leaves (negative: the refit fits better), and whether that is
+        more than the yield test asks of a yield (the data exclude it; a refit that diverged
+        is excluded, its DF NaN) (:data:`~pier_monitor.core.identify.field_families.
+        YIELD_PROFILE`).  None elsewhere.
     """
 
     fits: dict[str, FamilyFit]
@@ -281,6 +288,17 @@ class SectionFamilies:
     yield_gain_share: float | None = None
     prior_peaks: tuple[float, float] = (0.0, 0.0)
     prior_peaks_identified: bool = True
+    yield_profile_df: float | None = None
+    yield_profile_gain_share: float | None = None
+    yield_profile_excluded: bool | None = None
+
+    @property
+    def yield_not_excluded(self) -> bool:
+        """Whether the yield profile yielded the spring (its DF past 1) within what the data
+        allow (:attr:`yield_profile_excluded` False): the section may have yielded up to
+        :attr:`yield_profile_df`."""
+        return (self.yield_profile_excluded is False and self.yield_profile_df is not None
+                and self.yield_profile_df > 1.0)
 
     @property
     def prior_peak(self) -> float:
@@ -391,6 +409,14 @@ class FamilyChoice:
     yield_rotation_vs_design: np.ndarray | None = field(default=None, repr=False)
     history_known: bool = False
 
+    @property
+    def yield_not_excluded_df(self) -> np.ndarray:
+        """Per section (N,): the DF up to which the data do not exclude a yield of a section
+        reported not yielded (:attr:`SectionFamilies.yield_profile_df` where
+        :attr:`SectionFamilies.yield_not_excluded`); NaN elsewhere.  The section's DF interval reaches up to it."""
+        return np.array([s.yield_profile_df if s.yield_not_excluded else np.nan
+                         for s in self.sections], dtype=float)
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary (per-family parameters and scores per section)."""
         out: dict[str, Any] = {"family": self.family, "reason": self.reason,
@@ -412,6 +438,9 @@ class FamilyChoice:
              "prior_peaks_identified": bool(s.prior_peaks_identified),
              "best": s.best, "bic_unyielded": dict(s.bic_unyielded),
              "yield_gain_share": s.yield_gain_share,
+             "yield_profile_df": s.yield_profile_df,
+             "yield_profile_gain_share": s.yield_profile_gain_share,
+             "yield_profile_excluded": s.yield_profile_excluded,
              "fits": {k: {"params": f.params, "c": f.c, "rss": f.rss, "bic": f.bic,
                           "n_params": f.n_params} for k, f in s.fits.items()}}
             for s in self.sections]

@@ -59,6 +59,7 @@ from pier_monitor.core.identify.uncertainty import (DF_RESOLUTION, FIELD_DF_RESO
                                                     overall_state_probabilities,
                                                     summarize_members, with_c_resolution,
                                                     with_df_resolution, with_own_k1,
+                                                    with_yield_not_excluded,
                                                     without_k1_on_bound)
 from pier_monitor.core.ingest.window import MeasuredWindow, Reproduced
 from pier_monitor.core.model.config import SpringParameters
@@ -890,23 +891,43 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
                  if settings.members > 1 and out.family.family == "takeda"
                  and window.coverage is not None and window.coverage.is_full else None)
     uncertainty = p_overall = None
+    raised = None  # (hi of the draws, hi) of the DFs whose yield the data do not exclude
     if draws is not None:
         uncertainty, p_overall = _summarize_draws(
             draws, out.family.df_resolution if rc_family else out.df_resolution)
+        if rc_family:
+            drawn_hi = [u.ductility_factor.hi for u in uncertainty]
+            uncertainty = with_yield_not_excluded(uncertainty,
+                                                  out.family.yield_not_excluded_df)
+            raised = [(h, u.ductility_factor.hi) if u.ductility_factor.hi != h else None
+                      for h, u in zip(drawn_hi, uncertainty)]
     base_k1 = window.design.k1 if baseline_k1 is None else baseline_k1
     sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
                               baseline_k1=None if rc_family else base_k1,
                               uncertainty=uncertainty, yield_angles=yield_angles)
     if out.family is not None:
         sections = with_family(sections, out.family)
+    if raised is not None:
+        sections = tuple(replace(s, df_yield_not_excluded=r) for s, r in zip(sections, raised))
     if rc_family:  # rebased once the sections know their family (what their k1 spread is of)
         change = k1_change_pct(out.params.k1, base_k1)
         sections = tuple(s.rebased(float(b), float(d), "baseline") for s, b, d
                          in zip(sections, np.asarray(base_k1, dtype=float), change))
     # shown with the intervals, no state changes; k1 between unmeasured levels: a model error
-    sections = with_identifiability(
-        sections, None if window.coverage is None
-        else window.coverage.acceleration | window.coverage.displacement)
+    ends = (None if window.coverage is None
+            else window.coverage.acceleration | window.coverage.displacement)
+    sections = with_identifiability(sections, ends)
+    if raised is not None and any(r is not None for r in raised):
+        # which DFs the draws' own interval would not have flagged (their peak rotation is
+        # identified: the next event starts from it, IdentificationResult.
+        # with_history_identified)
+        drawn = with_identifiability(tuple(
+            replace(s, uncertainty=replace(s.uncertainty, ductility_factor=replace(
+                s.uncertainty.ductility_factor, hi=r[0]))) if r is not None else s
+            for s, r in zip(sections, raised)), ends)
+        sections = tuple(replace(s, df_flagged_by_yield_profile=bool(
+            "DF" in s.poorly_identified and "DF" not in d.poorly_identified))
+            for s, d in zip(sections, drawn))
     if out.k1_unresolved is not None:
         sections = with_k1_unresolved(sections, out.k1_unresolved)
     if out.section_evidence and not rc_family:  # the bilinear springs' own tests (rule 13)

@@ -49,6 +49,7 @@ __all__ = [
     "summarize_members",
     "with_c_resolution",
     "with_df_resolution",
+    "with_yield_not_excluded",
     "with_own_k1",
     "without_k1_on_bound",
 ]
@@ -370,6 +371,26 @@ def with_df_resolution(uncertainty: tuple[SectionUncertainty, ...], ductility: n
             s = replace(s, lo=float(min(s.lo, df * (1.0 - resolution))),
                         hi=float(max(s.hi, df * (1.0 + resolution))))
             u = replace(u, ductility_factor=s)
+        out.append(u)
+    return tuple(out)
+
+
+def with_yield_not_excluded(uncertainty: tuple[SectionUncertainty, ...], bound: np.ndarray
+                            ) -> tuple[SectionUncertainty, ...]:
+    """``uncertainty`` with the DF interval of every section whose ``bound`` (N,) is finite
+    reaching up to it: the DF up to which the data do not exclude a yield of a section
+    reported not yielded (:attr:`~pier_monitor.core.identify.families.FamilyChoice.
+    yield_not_excluded_df`; its posterior draws all follow the fit's decision, at most 1).
+    Lower ends, means and the other sections are kept."""
+    bound = np.asarray(bound, dtype=float)
+    if bound.shape != (len(uncertainty),):
+        raise InputDataError(f"yield-profile DF bounds: expected {len(uncertainty)} "
+                             f"sections, got shape {bound.shape}")
+    out = []
+    for u, b in zip(uncertainty, bound):
+        s = u.ductility_factor
+        if np.isfinite(b) and s.defined and b > s.hi:
+            u = replace(u, ductility_factor=replace(s, hi=float(b)))
         out.append(u)
     return tuple(out)
 
