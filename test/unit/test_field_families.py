@@ -337,6 +337,9 @@ def test_a_section_read_not_yielded_is_held_yielding_and_its_interval_says_what_
     assert profile[3]["yield_profile_df"] > 1.05
     hi_drawn, hi = s.df_yield_not_excluded
     assert hi_drawn <= 1.0 and hi == s.uncertainty.ductility_factor.hi == profile[3]["yield_profile_df"]
+    # its DF is no longer shown as a bound ("≤ 1"); those of sections 1 and 2 are
+    assert not s.ductility_factor_upper_bound
+    assert result.sections[0].ductility_factor_upper_bound
     assert "yield not excluded by the data" in family["reason"]
     assert f"{hi:.2f} (section 4)" in family["reason"]
     assert profile[5]["yield_profile_df"] < 1.0 and result.sections[5].df_yield_not_excluded is None

@@ -1171,12 +1171,15 @@ class SectionResult:
     def ductility_factor_upper_bound(self) -> bool:
         """Whether the DF is only an upper bound (about 1): the spring did not yield.
 
-        False where there is no DF (NaN: a failed identification), and where the section
+        False where there is no DF (NaN: a failed identification), where the section
         may have yielded beside a yielded section (rule 14, evidence :data:`YIELD_SPLIT`):
-        its DF is not identified, and its interval reaches past 1.
+        its DF is not identified, and its interval reaches past 1; and where the data do not
+        exclude its yield (``df_yield_not_excluded``, the interval reaching past 1).
         """
         return (not self.yielded and math.isfinite(self.ductility_factor)
-                and not any(str(e).startswith(YIELD_SPLIT) for e in self.evidence))
+                and not any(str(e).startswith(YIELD_SPLIT) for e in self.evidence)
+                and not (self.df_yield_not_excluded is not None
+                         and self.df_yield_not_excluded[1] > 1.0))
 
     @property
     def damage_state(self) -> DamageState:
