@@ -11,7 +11,9 @@ identification failed).  :func:`diagnostics_fields` maps the fields of a damage 
 Two rules of what an operator reads:
 
 * the DF of a spring that did not yield is only an upper bound: it reads ``≤ 1`` (the bound,
-  usually 1) and ``ductility_factor_upper_bound`` is ``true``;
+  usually 1) and ``ductility_factor_upper_bound`` is ``true``; except where the data do not
+  exclude that it yielded (its interval reaching past 1: a yield beside a yielded section,
+  or the field reconstruction's yield profile), then ``false``;
 * ``k1_change_pct`` is only a change between two identified events; the first event of a pier
   has none (``n/a``) and its difference from the design values has its own key,
   ``k1_vs_design_pct``, which is never a basis of the level (a design value is no

@@ -4,6 +4,7 @@ reconstruction over the equation-error fit of a fully measured window."""
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import replace
 
@@ -343,6 +344,11 @@ def test_a_section_read_not_yielded_is_held_yielding_and_its_interval_says_what_
     assert "yield not excluded by the data" in family["reason"]
     assert f"{hi:.2f} (section 4)" in family["reason"]
     assert profile[5]["yield_profile_df"] < 1.0 and result.sections[5].df_yield_not_excluded is None
+    # one member (no interval): the same finding, said without one
+    single = identify(first, IdentifySettings(members=1)).result.sections[3]
+    assert single.uncertainty is None and math.isnan(single.df_yield_not_excluded[0])
+    assert single.df_yield_not_excluded[1] == pytest.approx(hi, rel=1e-9)
+    assert not single.ductility_factor_upper_bound
     assert "(section 6)" not in family["reason"]
     assert all(not sec["yielded"]["takeda"] for sec in profile)
 

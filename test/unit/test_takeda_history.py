@@ -4,6 +4,7 @@ hands to the next (no training)."""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 
@@ -11,6 +12,7 @@ import numpy as np
 import pytest
 
 from pier_monitor.core.errors import InputDataError
+from pier_monitor.core.fileio import to_strict_json
 from pier_monitor.core.identify.damage import (RC_STIFFNESS_RESOLUTION, IdentificationResult,
                                                SectionResult,
                                                rotation_peaks_after)
@@ -286,6 +288,10 @@ def test_a_df_flagged_only_because_a_yield_is_not_excluded_keeps_its_history(bas
     assert [s.df_flagged_by_yield_profile_only for s in back.sections][:3] == [False, True,
                                                                               False]
     assert back.sections[1].df_yield_not_excluded == (0.5, 1.3)
+    # without draws the first number is NaN: written as null, read back as NaN
+    lone = replace(back.sections[1], df_yield_not_excluded=(math.nan, 1.3))
+    again = SectionResult.from_dict(json.loads(to_strict_json(lone.to_dict())))
+    assert math.isnan(again.df_yield_not_excluded[0]) and again.df_yield_not_excluded[1] == 1.3
     assert [s.rotation_peaks_after_rad is None for s in back.sections][:3] == [True, False,
                                                                               True]
     want = np.array(peaks).T

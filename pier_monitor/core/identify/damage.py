@@ -1113,8 +1113,10 @@ class SectionResult:
     ``df_yield_not_excluded`` ``(hi_draws, hi)``: for a section reported not yielded whose
     yield the data do not exclude (the field reconstruction's yield profile,
     :attr:`~pier_monitor.core.identify.families.FamilyChoice.yield_not_excluded_df`), the
-    upper end of its DF interval from the posterior draws alone and the DF up to which the
-    interval now reaches; None elsewhere.  ``df_flagged_by_yield_profile``: its DF is
+    upper end of its DF interval from the posterior draws alone (NaN without draws: no
+    interval) and the DF the profile's refit reached, up to which the event's own interval
+    now reaches (a cumulative DF's interval, on another yield rotation, is rescaled; these two
+    numbers are the event's); None elsewhere.  ``df_flagged_by_yield_profile``: its DF is
     poorly identified by the width of that interval, and would not be by the draws' own.
     """
 
@@ -1343,8 +1345,9 @@ class SectionResult:
         if u is not None and _too_wide(u.ductility_factor, "DF"):
             # the reference's uncertainty can widen the interval past the DF's limit
             flags = _flagged(flags, "DF")
-        # on the reference the event's own interval is not this DF's: nor is its profile
-        profile_only = self.df_flagged_by_yield_profile_only and not on_reference
+        # on the reference the event's own interval is not this DF's, nor is its profile;
+        # and a yielded reference's spread can flag the DF on its own
+        profile_only = self.df_flagged_by_yield_profile_only and not on_reference and not yielded
         out = replace(self, ductility_factor=df, yield_angle_rad=theta_y, yielded=yielded,
                       uncertainty=u, poorly_identified=flags,
                       df_flagged_by_yield_profile=profile_only,
@@ -1393,7 +1396,7 @@ class SectionResult:
         for name in ("rotation_peaks_after_rad", "rotation_peaks_unidentified_rad",
                      "df_yield_not_excluded"):
             if d.get(name) is not None:
-                d[name] = tuple(float(v) for v in d[name])
+                d[name] = tuple(nan_if_none(v) for v in d[name])
         return cls(**d)
 
 

@@ -411,9 +411,11 @@ class FamilyChoice:
 
     @property
     def yield_not_excluded_df(self) -> np.ndarray:
-        """Per section (N,): the DF up to which the data do not exclude a yield of a section
-        reported not yielded (:attr:`SectionFamilies.yield_profile_df` where
-        :attr:`SectionFamilies.yield_not_excluded`); NaN elsewhere.  The section's DF interval reaches up to it."""
+        """Per section (N,): for a section reported not yielded, the DF its refit held yielding
+        reached where the data do not exclude that yield (:attr:`SectionFamilies.
+        yield_profile_df` where :attr:`SectionFamilies.yield_not_excluded`; one depth tested,
+        not the largest DF the data allow); NaN elsewhere.  The section's DF interval reaches
+        up to it."""
         return np.array([s.yield_profile_df if s.yield_not_excluded else np.nan
                          for s in self.sections], dtype=float)
 

@@ -176,7 +176,12 @@ FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS = 0.25
 #: (``max(yield_chi2, 2 log n_eff)`` and :data:`YIELD_SHARE` of the chi-square the fit
 #: leaves) and the refit does yield (its DF past 1), the data do not exclude that the
 #: section yielded, and the DF interval reaches up to the DF of the refit
-#: (``FamilyChoice.yield_not_excluded_df``; the family's reason lists them).  A not-yielded
+#: (``FamilyChoice.yield_not_excluded_df``; the family's reason lists them).  One depth is
+#: tested, not a range: the DF the refit reached there (about ``1 + r``) is not the largest
+#: the data allow.  Unlike the yield test it does not ask the yield rotation to be at least
+#: :data:`~pier_monitor.core.identify.families.MIN_YIELD_ROTATION_SHARE` of the design's: on
+#: a lightly loaded section the "yield" not excluded may be a crack, and its interval reach
+#: past 1 (an elastic section then suspicious, never damaged).  A not-yielded
 #: section's interval had been that of the posterior draws alone, which all agree with the
 #: fit's yield decision: on the drawn sequences (Table 1 pier, accelerometers) sections whose
 #: reinforcement had just yielded (true DF 1.15-1.42) read 0.67-0.94 with intervals ending
@@ -802,11 +807,13 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
 
     df_resolution = (FIELD_TAKEDA_DF_RESOLUTION if pb.acc.size == n
                      else FIELD_TAKEDA_DF_RESOLUTION_FEW_LEVELS)
-    floor = yield_peak_fraction("takeda")
+    takeda_floor = yield_peak_fraction("takeda")
 
-    def yield_profile(i: int) -> tuple[float, float]:
+    def yield_profile(i: int) -> tuple[float, float, bool]:
         # spring i held yielding (θy at θp / (1 + r)) and refitted with its neighbours: the
-        # DF the refit reaches (NaN where it diverges) and its chi-square's gain share
+        # DF the refit reaches (NaN where it diverges), its chi-square's gain over what the
+        # fit leaves (a share of it), and whether the data exclude it (the yield test's
+        # thresholds on the gain; a refit that diverged is excluded)
         free = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
         cols = np.concatenate([np.arange(j * _NT, (j + 1) * _NT) for j in free])
         res_forced = _HeldResiduals(tf, q, eps, i, free, g, theta, moment,
@@ -816,24 +823,21 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
                                         x_scale=scales[cols], max_nfev=100,
                                         tr_solver="lsmr", workers=res_forced.map)
         gain = float(np.sum(forced.fun[:tf.n_data] ** 2)) - chi2_t
-        share = gain / chi2_t if chi2_t > 0.0 else float("inf")
         qq = res_forced._params(forced.x)
         th = tf.angles(qq, g, springs=free, theta=theta, moment=moment)[0]
         if not np.all(np.isfinite(th[:, i])) or not np.isfinite(gain):
-            return float("nan"), float("inf")
+            return float("nan"), float("inf"), True
         pk_f = float(np.abs(th[:, i]).max())
-        return pk_f / idealised_yield(takeda_skeleton(tf.params(qq, i)), pk_f, floor), share
+        excluded = bool(gain > max(settings.yield_chi2, 2.0 * log_neff)
+                        and gain > YIELD_SHARE * chi2_t)
+        return (pk_f / idealised_yield(takeda_skeleton(tf.params(qq, i)), pk_f, takeda_floor),
+                gain / chi2_t if chi2_t > 0.0 else float("inf"), excluded)
 
-    # per section read not yielded: the refit's DF, its gain share, whether the data
-    # exclude it (the yield test's thresholds; a refit that diverged is excluded)
+    # per section read not yielded: the refit's DF, its gain share, whether excluded
     profile: list[tuple[float, float, bool] | None] = [None] * n
     if family == "takeda" and YIELD_PROFILE:
         for i in np.flatnonzero(~yielded):
-            forced_df, share = yield_profile(int(i))
-            profile[i] = (forced_df, share, bool(
-                not np.isfinite(forced_df)
-                or (share * chi2_t > max(settings.yield_chi2, 2.0 * log_neff)
-                    and share > YIELD_SHARE)))
+            profile[i] = yield_profile(int(i))
 
     sections = []
     for i in range(n):
@@ -870,7 +874,7 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     th_out, mo_out = (theta, moment) if family == "takeda" else (fit.theta, fit.moment)
     pk = np.array([s.peak_rotation for s in sections])
     fam_yielded = np.array([s.yielded[family] for s in sections])
-    floor = yield_peak_fraction(family)  # (the Takeda's above; this family's here)
+    floor = yield_peak_fraction(family)
     ty_id = np.array([idealised_yield(s.fits[family].skeleton, max(s.peak_rotation, 1e-300),
                                       floor) for s in sections])
     df = np.where(fam_yielded, pk / ty_id, np.minimum(pk / ty_id, 1.0))

@@ -896,11 +896,15 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
         uncertainty, p_overall = _summarize_draws(
             draws, out.family.df_resolution if rc_family else out.df_resolution)
         if rc_family:
+            bound = out.family.yield_not_excluded_df
             drawn_hi = [u.ductility_factor.hi for u in uncertainty]
-            uncertainty = with_yield_not_excluded(uncertainty,
-                                                  out.family.yield_not_excluded_df)
-            raised = [(h, u.ductility_factor.hi) if u.ductility_factor.hi != h else None
-                      for h, u in zip(drawn_hi, uncertainty)]
+            uncertainty = with_yield_not_excluded(uncertainty, bound)
+            raised = [(h, u.ductility_factor.hi)
+                      if np.isfinite(b) and u.ductility_factor.hi != h else None
+                      for b, h, u in zip(bound, drawn_hi, uncertainty)]
+    elif rc_family:  # no interval: what the data do not exclude is still said
+        raised = [(math.nan, float(b)) if np.isfinite(b) else None
+                  for b in out.family.yield_not_excluded_df]
     base_k1 = window.design.k1 if baseline_k1 is None else baseline_k1
     sections = build_sections(window.geometry, out.params, out.reproduced.theta, yielded,
                               baseline_k1=None if rc_family else base_k1,
@@ -917,7 +921,7 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
     ends = (None if window.coverage is None
             else window.coverage.acceleration | window.coverage.displacement)
     sections = with_identifiability(sections, ends)
-    if raised is not None and any(r is not None for r in raised):
+    if uncertainty is not None and raised is not None and any(r is not None for r in raised):
         # which DFs the draws' own interval would not have flagged (their peak rotation is
         # identified: the next event starts from it, IdentificationResult.
         # with_history_identified)
