@@ -179,7 +179,8 @@ from pier_monitor.core.ingest.window import MeasuredWindow
 from pier_monitor.core.ingest.findings import Finding
 
 from .states import DAMAGED_DF, SUSPICIOUS_DF, DamageState, classify_ductility, is_diagnosis
-from .uncertainty import K1ChangeInterval, SectionUncertainty, Spread, k1_change_interval
+from .uncertainty import (K1ChangeInterval, SectionUncertainty, Spread, df_reaching,
+                          k1_change_interval)
 
 __all__ = [
     "RESIDUAL_ROTATION_S",
@@ -471,15 +472,19 @@ def _is_model_misfit(model_misfit: dict[str, Any] | None) -> bool:
     return (model_misfit or {}).get("kind") == "model"
 
 
+#: The self-check lines that say a section's DF is not identified: rules 8
+#: (:data:`BILINEAR_MISFIT`: nor is its ``k1``), 10 (:data:`FIT_AT_LIMIT`), 11
+#: (:data:`SPLIT_UNMEASURED`), 12 (:data:`YIELD_OUT_OF_REACH`) and 16
+#: (:data:`YIELD_ABOVE_ELASTIC`).
+_DF_UNIDENTIFIED_EVIDENCE = (BILINEAR_MISFIT, FIT_AT_LIMIT, SPLIT_UNMEASURED, YIELD_OUT_OF_REACH,
+                             YIELD_ABOVE_ELASTIC)
+
+
 def _evidence_says_unidentified(evidence: Sequence[str]) -> bool:
-    """Whether ``evidence`` holds rule 8's line (:data:`BILINEAR_MISFIT`: the section's
-    ``k1`` and DF are not identified), rule 10's (:data:`FIT_AT_LIMIT`: its DF is not),
-    rule 11's (:data:`SPLIT_UNMEASURED`: its DF is not), rule 12's
-    (:data:`YIELD_OUT_OF_REACH`: its DF is not), rule 15's (:data:`SECTION_UNIDENTIFIED`:
-    neither are its ``k1`` and ``c``) or rule 16's (:data:`YIELD_ABOVE_ELASTIC`: its DF is
-    not)."""
-    return any(e.startswith((BILINEAR_MISFIT, FIT_AT_LIMIT, SPLIT_UNMEASURED,
-                             YIELD_OUT_OF_REACH, SECTION_UNIDENTIFIED, YIELD_ABOVE_ELASTIC))
+    """Whether ``evidence`` holds a line of :data:`_DF_UNIDENTIFIED_EVIDENCE` (rules 8, 10,
+    11, 12, 16: the section's DF is not identified) or rule 15's
+    (:data:`SECTION_UNIDENTIFIED`: neither are its ``k1`` and ``c``)."""
+    return any(e.startswith((*_DF_UNIDENTIFIED_EVIDENCE, SECTION_UNIDENTIFIED))
                for e in evidence)
 
 
@@ -811,18 +816,6 @@ def _k1_unidentified(section: SectionResult) -> bool:
     u = section.uncertainty
     return _evidence_says_unidentified(section.evidence) or (
         u is not None and u.members >= 2 and not u.k1.defined)
-
-
-def _df_reaching(uncertainty: SectionUncertainty | None, upto: float
-                 ) -> SectionUncertainty | None:
-    """``uncertainty`` with its DF interval's upper end raised to ``upto`` where that is
-    higher (rule 14); None stays None."""
-    if uncertainty is None or not math.isfinite(upto):
-        return uncertainty
-    df = uncertainty.ductility_factor
-    if not df.defined or df.hi >= upto:
-        return uncertainty
-    return replace(uncertainty, ductility_factor=replace(df, hi=float(upto)))
 
 
 def _flagged(flags: tuple[str, ...], *names: str) -> tuple[str, ...]:
@@ -1164,9 +1157,7 @@ class SectionResult:
         of the self-check flagged it: 8, 10, 11, 12, 14, 16).  Its peak rotation is then
         identified, its yield rotation is not."""
         return (self.df_flagged_by_yield_profile and "DF" in self.poorly_identified
-                and not any(str(e).startswith((BILINEAR_MISFIT, FIT_AT_LIMIT, SPLIT_UNMEASURED,
-                                               YIELD_OUT_OF_REACH, YIELD_SPLIT,
-                                               YIELD_ABOVE_ELASTIC))
+                and not any(str(e).startswith((*_DF_UNIDENTIFIED_EVIDENCE, YIELD_SPLIT))
                             for e in self.evidence))
 
     @property
@@ -1688,7 +1679,7 @@ class IdentificationResult:
             if sv and is_diagnosis(s.damage_state):  # rule 14
                 ev = (*ev, *sv)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "DF"),
-                            uncertainty=_df_reaching(s.uncertainty, upto))
+                            uncertainty=df_reaching(s.uncertainty, upto))
             if up and is_diagnosis(s.damage_state):  # rule 16
                 ev = (*ev, *up)
                 s = replace(s, poorly_identified=_flagged(s.poorly_identified, "DF"))

@@ -765,29 +765,39 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
     chi2_t = tf.chi2(tf.residual(q, eps, theta))
     peak = np.abs(theta).max(axis=0)
 
+    def held_refit(i: int, theta_p: float) -> tuple[np.ndarray, float, list[int]]:
+        # spring i's yield rotation held at theta_p and refitted with its neighbours (a
+        # yielding spring can stand in for a stiffer or softer neighbour): the springs'
+        # parameters, the chi-square it adds to the fit's, the springs refitted
+        free = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
+        cols = np.concatenate([np.arange(j * _NT, (j + 1) * _NT) for j in free])
+        res_held = _HeldResiduals(tf, q, eps, i, free, g, theta, moment, theta_p)
+        x0 = np.clip(sol.x[cols], lo_f[cols] + 1e-9, hi_f[cols] - 1e-9)
+        held = optimize.least_squares(res_held, x0, bounds=(lo_f[cols], hi_f[cols]),
+                                      x_scale=scales[cols], max_nfev=100, tr_solver="lsmr",
+                                      workers=res_held.map)
+        return (res_held._params(held.x), float(np.sum(held.fun[:tf.n_data] ** 2)) - chi2_t,
+                free)
+
+    def past_allowance(gain: float) -> bool:
+        # more than the yield test asks of a yield: max(yield_chi2, 2 log n_eff), and more
+        # than YIELD_SHARE of what the fit leaves
+        return bool(gain > max(settings.yield_chi2, 2.0 * log_neff)
+                    and gain > YIELD_SHARE * chi2_t)
+
     # yield test: hold one spring below yield (θy at 1.05 θp) and refit it with its
-    # neighbours (a yielding spring can stand in for a stiffer or softer neighbour)
+    # neighbours
     yielded = np.zeros(n, dtype=bool)
     gain_share: list[float | None] = [None] * n
     for i in range(n):
         if peak[i] <= tf.params(q, i).theta_y:
             continue
-        free = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
-        cols = np.concatenate([np.arange(j * _NT, (j + 1) * _NT) for j in free])
-
-        res_held = _HeldResiduals(tf, q, eps, i, free, g, theta, moment, 1.05 * peak[i])
-        x0 = np.clip(sol.x[cols], lo_f[cols] + 1e-9, hi_f[cols] - 1e-9)
-        held = optimize.least_squares(res_held, x0, bounds=(lo_f[cols], hi_f[cols]),
-                                      x_scale=scales[cols], max_nfev=100, tr_solver="lsmr",
-                                      workers=res_held.map)
-        gain = float(np.sum(held.fun[:tf.n_data] ** 2)) - chi2_t
+        gain = held_refit(i, 1.05 * peak[i])[1]
         gain_share[i] = gain / chi2_t if chi2_t > 0.0 else float("inf")
-        # ... and by more than YIELD_SHARE of what the fit leaves; a yield rotation far below
-        # the design's (fy/k1) is a crack the fit took for a yield point
-        yielded[i] = bool(gain > max(settings.yield_chi2, 2.0 * log_neff)
-                          and gain > YIELD_SHARE * chi2_t
-                          and tf.params(q, i).theta_y
-                          >= MIN_YIELD_ROTATION_SHARE * theta_y_design[i])
+        # a yield rotation far below the design's (fy/k1) is a crack the fit took for a
+        # yield point
+        yielded[i] = (past_allowance(gain) and tf.params(q, i).theta_y
+                      >= MIN_YIELD_ROTATION_SHARE * theta_y_design[i])
 
     # BIC of the two reconstructions
     bic = {"bilinear": bic_b, "takeda": chi2_t + p_tak * log_neff}
@@ -814,24 +824,13 @@ def fit_field_families(window: MeasuredWindow, fit: FieldFit,
         # DF the refit reaches (NaN where it diverges), its chi-square's gain over what the
         # fit leaves (a share of it), and whether the data exclude it (the yield test's
         # thresholds on the gain; a refit that diverged is excluded)
-        free = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
-        cols = np.concatenate([np.arange(j * _NT, (j + 1) * _NT) for j in free])
-        res_forced = _HeldResiduals(tf, q, eps, i, free, g, theta, moment,
-                                    float(peak[i]) / (1.0 + df_resolution))
-        x0 = np.clip(sol.x[cols], lo_f[cols] + 1e-9, hi_f[cols] - 1e-9)
-        forced = optimize.least_squares(res_forced, x0, bounds=(lo_f[cols], hi_f[cols]),
-                                        x_scale=scales[cols], max_nfev=100,
-                                        tr_solver="lsmr", workers=res_forced.map)
-        gain = float(np.sum(forced.fun[:tf.n_data] ** 2)) - chi2_t
-        qq = res_forced._params(forced.x)
+        qq, gain, free = held_refit(i, float(peak[i]) / (1.0 + df_resolution))
         th = tf.angles(qq, g, springs=free, theta=theta, moment=moment)[0]
         if not np.all(np.isfinite(th[:, i])) or not np.isfinite(gain):
             return float("nan"), float("inf"), True
         pk_f = float(np.abs(th[:, i]).max())
-        excluded = bool(gain > max(settings.yield_chi2, 2.0 * log_neff)
-                        and gain > YIELD_SHARE * chi2_t)
         return (pk_f / idealised_yield(takeda_skeleton(tf.params(qq, i)), pk_f, takeda_floor),
-                gain / chi2_t if chi2_t > 0.0 else float("inf"), excluded)
+                gain / chi2_t if chi2_t > 0.0 else float("inf"), past_allowance(gain))
 
     # per section read not yielded: the refit's DF, its gain share, whether excluded
     profile: list[tuple[float, float, bool] | None] = [None] * n

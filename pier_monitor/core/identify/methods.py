@@ -897,11 +897,10 @@ def identify(window: MeasuredWindow, settings: IdentifySettings | None = None,
             draws, out.family.df_resolution if rc_family else out.df_resolution)
         if rc_family:
             bound = out.family.yield_not_excluded_df
-            drawn_hi = [u.ductility_factor.hi for u in uncertainty]
+            raised = [(u.ductility_factor.hi, float(b))
+                      if u.ductility_factor.defined and b > u.ductility_factor.hi else None
+                      for u, b in zip(uncertainty, bound)]
             uncertainty = with_yield_not_excluded(uncertainty, bound)
-            raised = [(h, u.ductility_factor.hi)
-                      if np.isfinite(b) and u.ductility_factor.hi != h else None
-                      for b, h, u in zip(bound, drawn_hi, uncertainty)]
     elif rc_family:  # no interval: what the data do not exclude is still said
         raised = [(math.nan, float(b)) if np.isfinite(b) else None
                   for b in out.family.yield_not_excluded_df]

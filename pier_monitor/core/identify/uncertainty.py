@@ -48,6 +48,7 @@ __all__ = [
     "overall_state_probabilities",
     "summarize_members",
     "with_c_resolution",
+    "df_reaching",
     "with_df_resolution",
     "with_yield_not_excluded",
     "with_own_k1",
@@ -375,24 +376,31 @@ def with_df_resolution(uncertainty: tuple[SectionUncertainty, ...], ductility: n
     return tuple(out)
 
 
+def df_reaching(uncertainty: SectionUncertainty | None, upto: float
+                ) -> SectionUncertainty | None:
+    """``uncertainty`` with its DF interval's upper end raised to ``upto`` where that is
+    finite and higher (its lower end and mean kept); None, or an undefined interval, stays
+    as it is."""
+    if uncertainty is None or not math.isfinite(upto):
+        return uncertainty
+    df = uncertainty.ductility_factor
+    if not df.defined or df.hi >= upto:
+        return uncertainty
+    return replace(uncertainty, ductility_factor=replace(df, hi=float(upto)))
+
+
 def with_yield_not_excluded(uncertainty: tuple[SectionUncertainty, ...], bound: np.ndarray
                             ) -> tuple[SectionUncertainty, ...]:
     """``uncertainty`` with the DF interval of every section whose ``bound`` (N,) is finite
-    reaching up to it: the DF up to which the data do not exclude a yield of a section
-    reported not yielded (:attr:`~pier_monitor.core.identify.families.FamilyChoice.
-    yield_not_excluded_df`; its posterior draws all follow the fit's decision, at most 1).
-    Lower ends, means and the other sections are kept."""
+    reaching up to it (:func:`df_reaching`): the DF up to which the data do not exclude a
+    yield of a section reported not yielded (:attr:`~pier_monitor.core.identify.families.
+    FamilyChoice.yield_not_excluded_df`; its posterior draws all follow the fit's decision,
+    at most 1).  Lower ends, means and the other sections are kept."""
     bound = np.asarray(bound, dtype=float)
     if bound.shape != (len(uncertainty),):
         raise InputDataError(f"yield-profile DF bounds: expected {len(uncertainty)} "
                              f"sections, got shape {bound.shape}")
-    out = []
-    for u, b in zip(uncertainty, bound):
-        s = u.ductility_factor
-        if np.isfinite(b) and s.defined and b > s.hi:
-            u = replace(u, ductility_factor=replace(s, hi=float(b)))
-        out.append(u)
-    return tuple(out)
+    return tuple(df_reaching(u, float(b)) for u, b in zip(uncertainty, bound))
 
 
 def overall_state_probabilities(ductility: np.ndarray, yielded: np.ndarray
